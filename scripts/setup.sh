@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Create .venv and install the pinned dependencies and every package under src/.
+# Idempotent: a second run only re-checks what is installed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PYTHON=${PYTHON:-python3}
+if [ ! -x .venv/bin/python ]; then
+  echo "setup: creating .venv with $($PYTHON --version)"
+  "$PYTHON" -m venv .venv
+fi
+
+stamp=.venv/.wildfire-setup-stamp
+want=$(cat requirements.txt src/*/setup.py | sha256sum | cut -d' ' -f1)
+if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && [ -x .venv/bin/wildfire ]; then
+  echo "setup: .venv is up to date"
+  exit 0
+fi
+
+log=.venv/setup.log
+pip_install() {
+  # pip's build chatter goes to the log; on failure the log's tail says why.
+  if ! .venv/bin/python -m pip install --quiet "$@" >>"$log" 2>&1; then
+    tail -n 30 "$log" >&2
+    echo "setup: pip install $* failed (full log: $log)" >&2
+    exit 1
+  fi
+}
+: >"$log"
+pip_install --upgrade pip
+pip_install -r requirements.txt
+# Editable installs: the CLI and the ROS 2 entry points run the working tree's code.
+pkgs=()
+for pkg in src/*/; do pkgs+=(-e "$pkg"); done
+pip_install --no-deps "${pkgs[@]}"
+echo "$want" > "$stamp"
+echo "setup: done (.venv/bin/wildfire)"

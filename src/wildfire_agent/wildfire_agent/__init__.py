@@ -1,0 +1,1 @@
+"""Dubins aircraft, sensor model, rewards, policies (TorchScript, receding horizon, random) and the agent node."""

@@ -1,0 +1,1 @@
+"""Shared belief map, visit update, team reward and the belief-aggregator node."""

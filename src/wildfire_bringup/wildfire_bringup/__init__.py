@@ -1,0 +1,1 @@
+"""The wildfire command-line tool, launch files and default parameters."""

@@ -1,0 +1,101 @@
+"""Shared pieces of the command-line tool: parser class, argument types, JSON output."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any, NoReturn
+
+import numpy as np
+
+
+class UserError(Exception):
+    """A mistake in what the user asked for; reported as one line, exit status 2."""
+
+
+def _project_user_errors() -> tuple[type[BaseException], ...]:
+    """Error classes of the project packages that describe bad user input."""
+    errors: list[type[BaseException]] = [UserError]
+    for module_name, class_name in (
+        ("wildfire_msgs_py.errors", "WildfireRosError"),
+        ("wildfire_sim.errors", "FireConfigError"),
+        ("wildfire_agent.errors", "AgentConfigError"),
+        ("wildfire_learning.errors", "LearningError"),
+    ):
+        try:
+            module = __import__(module_name, fromlist=[class_name])
+        except ModuleNotFoundError:
+            continue
+        errors.append(getattr(module, class_name))
+    return tuple(errors)
+
+
+USER_ERRORS = _project_user_errors()
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse with one-line errors: ``wildfire eval: error: --wind: expected WX,WY``."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def non_negative_int(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {value}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    value = non_negative_int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number >= 1, got {value}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not np.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text}")
+    return value
+
+
+def wind_vector(text: str) -> tuple[float, float]:
+    """argparse type: ``WX,WY`` with each component in [-1, 1] (dimensionless wind)."""
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        wx, wy = (float(part) for part in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected WX,WY (two numbers in [-1, 1], e.g. 0.5,0), got {text!r}"
+        ) from None
+    if not (abs(wx) <= 1.0 and abs(wy) <= 1.0):
+        raise argparse.ArgumentTypeError(f"expected components in [-1, 1], got {text!r}")
+    return wx, wy
+
+
+def print_json(payload: dict[str, Any]) -> None:
+    """Print a JSON summary on stdout (numpy scalars and arrays converted)."""
+
+    def convert(value: Any) -> Any:
+        if isinstance(value, np.ndarray):
+            return value.tolist()
+        if isinstance(value, np.generic):
+            return value.item()
+        raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+    json.dump(payload, sys.stdout, default=convert, indent=2)
+    sys.stdout.write("\n")

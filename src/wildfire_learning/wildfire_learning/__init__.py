@@ -1,0 +1,1 @@
+"""Batched multi-agent wildfire environment, DQN training, bag replay and evaluation."""

@@ -1,0 +1,1 @@
+"""Interface package: topic contract, numpy<->message codecs, ROS 2 runtime binding (rclpy or Cyclone DDS)."""

@@ -1,0 +1,1 @@
+"""Stochastic wildfire model (batched) and the fire-simulator node."""

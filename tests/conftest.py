@@ -1,0 +1,23 @@
+"""Test-wide settings.
+
+Every test that touches DDS must stay on this machine: Cyclone DDS is pinned to the
+loopback-only configuration in ``config/`` and each pytest session picks its own
+``ROS_DOMAIN_ID`` so parallel runs (two developers, CI) never see each other's traffic.
+Child processes started by tests inherit both variables.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+LOOPBACK_CONFIG = REPO_ROOT / "config" / "cyclonedds_loopback.xml"
+
+os.environ["CYCLONEDDS_URI"] = LOOPBACK_CONFIG.as_uri()
+# Domain ids 0..101 are safe on Linux for any participant count; 0 is the usual default,
+# so a test session uses 1..100, derived from its process id.
+os.environ["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 100)
+os.environ.setdefault("WILDFIRE_ROS_BACKEND", "auto")
+# Matplotlib must never try to open a window in tests or CI.
+os.environ.setdefault("MPLBACKEND", "Agg")
