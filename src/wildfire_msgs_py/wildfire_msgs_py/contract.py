@@ -1,0 +1,236 @@
+"""The topic contract: every topic of the system with its ROS 2 type and QoS, in one place.
+
+Only standard ``common_interfaces`` types are used, so a stock ROS 2 Jazzy install can echo,
+plot and record every topic. Aircraft are numbered **from 0** (``/uav0``, ``/uav1``, ...) so
+that aircraft ``k`` is row ``k`` of every per-aircraft numpy array.
+
+=========================  ==================================  ===============================
+topic                      type                                QoS (reliability, durability,
+                                                               depth)
+=========================  ==================================  ===============================
+``/clock``                 ``rosgraph_msgs/msg/Clock``         reliable, volatile, 1
+``/wildfire/fire_map``     ``nav_msgs/msg/OccupancyGrid``      reliable, transient-local, 1
+``/wildfire/fuel_map``     ``nav_msgs/msg/OccupancyGrid``      reliable, transient-local, 1
+``/wildfire/belief``       ``nav_msgs/msg/OccupancyGrid``      reliable, transient-local, 1
+``/wildfire/belief_age``   ``nav_msgs/msg/OccupancyGrid``      reliable, transient-local, 1
+``/wildfire/score``        ``std_msgs/msg/Float64``            reliable, transient-local, 1
+``/uavK/odom``             ``nav_msgs/msg/Odometry``           reliable, volatile, 10
+``/uavK/bank_cmd``         ``std_msgs/msg/Float64``            reliable, volatile, 10
+``/uavK/visit``            ``nav_msgs/msg/OccupancyGrid``      reliable, volatile, 10
+``/uavK/state``            ``std_msgs/msg/Float64MultiArray``  reliable, volatile, 10
+``/uavK/deadline``         ``diagnostic_msgs/msg/DiagnosticArray``  reliable, volatile, 10
+=========================  ==================================  ===============================
+
+Maps are latched (transient-local, depth 1) so a node or ``wildfire topic echo`` started late
+still receives the current map, as with a ROS 1 latched topic. Per-aircraft streams keep 10
+messages so a briefly busy subscriber (the belief aggregator) loses no visit in lockstep mode.
+The encodings of each topic are documented in :mod:`wildfire_msgs_py.codecs`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+
+#: Frame of every grid and pose: x east, y north, origin at the grid's south-west corner.
+MAP_FRAME = "map"
+#: Prefix of an aircraft namespace; aircraft ``k`` lives in ``/uav{k}``.
+AIRCRAFT_PREFIX = "uav"
+
+
+@dataclass(frozen=True)
+class QosSpec:
+    """Backend-neutral QoS of a topic (mapped to rclpy's or our ``QoSProfile``)."""
+
+    depth: int = 10
+    """History depth (KEEP_LAST)."""
+    reliable: bool = True
+    """RELIABLE when true, BEST_EFFORT otherwise."""
+    transient_local: bool = False
+    """TRANSIENT_LOCAL (late joiners get the last ``depth`` messages) or VOLATILE."""
+
+    def profile(self) -> Any:
+        """The ``QoSProfile`` of the active runtime backend."""
+        from wildfire_msgs_py.runtime import (
+            DurabilityPolicy,
+            HistoryPolicy,
+            QoSProfile,
+            ReliabilityPolicy,
+        )
+
+        return QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=self.depth,
+            reliability=(
+                ReliabilityPolicy.RELIABLE if self.reliable else ReliabilityPolicy.BEST_EFFORT
+            ),
+            durability=(
+                DurabilityPolicy.TRANSIENT_LOCAL
+                if self.transient_local
+                else DurabilityPolicy.VOLATILE
+            ),
+        )
+
+
+LATCHED = QosSpec(depth=1, reliable=True, transient_local=True)
+STREAM = QosSpec(depth=10, reliable=True, transient_local=False)
+CLOCK_QOS = QosSpec(depth=1, reliable=True, transient_local=False)
+
+
+@dataclass(frozen=True)
+class TopicSpec:
+    """One topic of the contract."""
+
+    name: str
+    """Absolute name, or for per-aircraft topics the name relative to ``/uavK``."""
+    type: str
+    """ROS 2 type name, ``pkg/msg/Type``."""
+    qos: QosSpec
+    """Quality of service both publisher and subscribers use."""
+    per_aircraft: bool
+    """True when one instance exists per aircraft under ``/uavK``."""
+    description: str
+    """What the topic carries and how it is encoded."""
+
+    def resolve(self, aircraft: int | None = None) -> str:
+        """Absolute topic name; per-aircraft topics need the aircraft index."""
+        if not self.per_aircraft:
+            return self.name
+        if aircraft is None:
+            raise ValueError(f"topic {self.name!r} is per aircraft: give the aircraft index")
+        return aircraft_topic(aircraft, self.name)
+
+
+CLOCK = TopicSpec(
+    "/clock", "rosgraph_msgs/msg/Clock", CLOCK_QOS, False,
+    "simulation time; lockstep mode only, published by the fire simulator",
+)
+FIRE_MAP = TopicSpec(
+    "/wildfire/fire_map", "nav_msgs/msg/OccupancyGrid", LATCHED, False,
+    "true fire: 100 burning, 0 not burning; 100x100 cells of 10 m, row 0 south",
+)
+FUEL_MAP = TopicSpec(
+    "/wildfire/fuel_map", "nav_msgs/msg/OccupancyGrid", LATCHED, False,
+    "true fuel: the integer fuel value 0..20 stored directly in each cell",
+)
+BELIEF = TopicSpec(
+    "/wildfire/belief", "nav_msgs/msg/OccupancyGrid", LATCHED, False,
+    "shared belief: 100 believed burning, 0 believed not burning",
+)
+BELIEF_AGE = TopicSpec(
+    "/wildfire/belief_age", "nav_msgs/msg/OccupancyGrid", LATCHED, False,
+    "seconds since each cell was visited, 0..255 s scaled to 0..100 (rounded)",
+)
+SCORE = TopicSpec(
+    "/wildfire/score", "std_msgs/msg/Float64", LATCHED, False,
+    "cumulative team reward of the episode",
+)
+ODOM = TopicSpec(
+    "odom", "nav_msgs/msg/Odometry", STREAM, True,
+    "10 Hz pose: frame map, child uavK/base_link, roll = bank, yaw = heading",
+)
+BANK_CMD = TopicSpec(
+    "bank_cmd", "std_msgs/msg/Float64", STREAM, True,
+    "commanded bank angle in radians after each decision",
+)
+VISIT = TopicSpec(
+    "visit", "nav_msgs/msg/OccupancyGrid", STREAM, True,
+    "window around the aircraft: 100/0 truth in visited cells, -1 outside the 100 m disc",
+)
+STATE = TopicSpec(
+    "state", "std_msgs/msg/Float64MultiArray", STREAM, True,
+    "exact aircraft state [x_m, y_m, heading_rad, bank_rad] as float64 (bit-exact for peers)",
+)
+DEADLINE = TopicSpec(
+    "deadline", "diagnostic_msgs/msg/DiagnosticArray", STREAM, True,
+    "10 Hz decision deadline statistics of the agent",
+)
+
+#: Every topic of the contract, in documentation order.
+TOPICS: tuple[TopicSpec, ...] = (
+    CLOCK, FIRE_MAP, FUEL_MAP, BELIEF, BELIEF_AGE, SCORE, ODOM, BANK_CMD, VISIT, STATE, DEADLINE,
+)
+
+_AIRCRAFT_NAMESPACE = re.compile(rf"^/{AIRCRAFT_PREFIX}(0|[1-9][0-9]*)$")
+
+
+def aircraft_namespace(k: int) -> str:
+    """Namespace of aircraft ``k`` (0-based): ``aircraft_namespace(0) -> "/uav0"``."""
+    if isinstance(k, bool) or not isinstance(k, int) or k < 0:
+        raise ValueError(f"aircraft index must be an integer >= 0, got {k!r}")
+    return f"/{AIRCRAFT_PREFIX}{k}"
+
+
+def aircraft_topic(k: int, name: str) -> str:
+    """Absolute per-aircraft topic: ``aircraft_topic(0, "odom") -> "/uav0/odom"``."""
+    return f"{aircraft_namespace(k)}/{name.strip('/')}"
+
+
+def aircraft_index(namespace_or_topic: str) -> int | None:
+    """Aircraft index of ``/uavK`` or ``/uavK/...``; None when it is not an aircraft name."""
+    parts = namespace_or_topic.split("/")
+    if len(parts) < 2 or not _AIRCRAFT_NAMESPACE.match("/" + parts[1]):
+        return None
+    return int(parts[1][len(AIRCRAFT_PREFIX):])
+
+
+def base_link_frame(k: int) -> str:
+    """Body frame of aircraft ``k``: ``uav0/base_link``."""
+    return f"{AIRCRAFT_PREFIX}{k}/base_link"
+
+
+def topics_for(num_aircraft: int) -> Iterator[tuple[str, TopicSpec]]:
+    """Every concrete (absolute name, spec) pair of a system with ``num_aircraft`` aircraft."""
+    for spec in TOPICS:
+        if spec.per_aircraft:
+            for k in range(num_aircraft):
+                yield spec.resolve(k), spec
+        else:
+            yield spec.name, spec
+
+
+def spec_for(topic: str) -> TopicSpec | None:
+    """The contract entry of an absolute topic name (``/uav3/odom`` -> ODOM), or None."""
+    for spec in TOPICS:
+        if not spec.per_aircraft and spec.name == topic:
+            return spec
+    k = aircraft_index(topic)
+    if k is not None:
+        suffix = topic[len(aircraft_namespace(k)) + 1:]
+        for spec in TOPICS:
+            if spec.per_aircraft and spec.name == suffix:
+                return spec
+    return None
+
+
+__all__ = [
+    "AIRCRAFT_PREFIX",
+    "BANK_CMD",
+    "BELIEF",
+    "BELIEF_AGE",
+    "CLOCK",
+    "CLOCK_QOS",
+    "DEADLINE",
+    "FIRE_MAP",
+    "FUEL_MAP",
+    "LATCHED",
+    "MAP_FRAME",
+    "ODOM",
+    "SCORE",
+    "STATE",
+    "STREAM",
+    "TOPICS",
+    "VISIT",
+    "QosSpec",
+    "TopicSpec",
+    "aircraft_index",
+    "aircraft_namespace",
+    "aircraft_topic",
+    "base_link_frame",
+    "spec_for",
+    "topics_for",
+]

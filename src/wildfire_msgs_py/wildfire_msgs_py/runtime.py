@@ -1,0 +1,143 @@
+"""One import surface for node code on both backends.
+
+``WILDFIRE_ROS_BACKEND`` selects the backend when this module is first imported:
+
+* ``rclpy`` — the real rclpy of a ROS 2 Jazzy install, real rosidl message classes;
+* ``dds`` — :mod:`wildfire_msgs_py.dds`, our rclpy-compatible layer over Cyclone DDS;
+* ``auto`` (default) — rclpy when it imports, else dds.
+
+Node code imports everything from here and runs unchanged on both::
+
+    from wildfire_msgs_py.runtime import (
+        ExternalShutdownException, Node, QoSProfile, SingleThreadedExecutor, get_message, rclpy,
+    )
+    OccupancyGrid = get_message("nav_msgs/msg/OccupancyGrid")
+
+``serialize_message``/``deserialize_message`` convert to and from CDR bytes (as
+``rclpy.serialization``), ``PARAMETER_ERRORS`` lists the exceptions a bad parameter raises.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+from typing import Any
+
+from wildfire_msgs_py.errors import BackendError, ParameterError, UnknownMessageTypeError
+
+_CHOICES = ("auto", "rclpy", "dds")
+
+
+def _choose_backend() -> str:
+    choice = os.environ.get("WILDFIRE_ROS_BACKEND", "auto").strip().lower() or "auto"
+    if choice not in _CHOICES:
+        raise BackendError(
+            f"WILDFIRE_ROS_BACKEND={choice!r}: expected one of {', '.join(_CHOICES)}"
+        )
+    if choice == "dds":
+        return "dds"
+    try:
+        importlib.import_module("rclpy")
+    except ImportError:
+        if choice == "rclpy":
+            raise BackendError(
+                "WILDFIRE_ROS_BACKEND=rclpy but rclpy does not import: source a ROS 2 Jazzy "
+                "install (setup.bash) or use WILDFIRE_ROS_BACKEND=dds"
+            ) from None
+        return "dds"
+    return "rclpy"
+
+
+#: The backend in use: ``"rclpy"`` or ``"dds"``.
+BACKEND = _choose_backend()
+
+if BACKEND == "rclpy":
+    import rclpy
+    from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+    from rclpy.duration import Duration
+    from rclpy.exceptions import (
+        InvalidParameterTypeException,
+        InvalidParameterValueException,
+        ParameterAlreadyDeclaredException,
+        ParameterNotDeclaredException,
+    )
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.node import Node
+    from rclpy.parameter import Parameter
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from rclpy.serialization import deserialize_message, serialize_message
+    from rclpy.time import Time
+    from rclpy.utilities import remove_ros_args
+
+    PARAMETER_ERRORS: tuple[type[BaseException], ...] = (
+        ParameterError,
+        InvalidParameterTypeException,
+        InvalidParameterValueException,
+        ParameterAlreadyDeclaredException,
+        ParameterNotDeclaredException,
+    )
+
+    def get_message(type_name: str) -> Any:
+        """The rosidl message class of ``pkg/msg/Type``."""
+        from rosidl_runtime_py.utilities import get_message as rosidl_get_message
+
+        from wildfire_msgs_py.dds.types import normalize_type_name
+
+        name = normalize_type_name(type_name)
+        try:
+            return rosidl_get_message(name)
+        except (AttributeError, ModuleNotFoundError, ValueError):
+            raise UnknownMessageTypeError(
+                f"message type {type_name!r} is not installed in this ROS 2 environment"
+            ) from None
+
+else:
+    from wildfire_msgs_py import dds as rclpy
+    from wildfire_msgs_py.dds.clock import Duration, Time
+    from wildfire_msgs_py.dds.context import ExternalShutdownException
+    from wildfire_msgs_py.dds.executor import SingleThreadedExecutor
+    from wildfire_msgs_py.dds.node import Node
+    from wildfire_msgs_py.dds.parameters import Parameter
+    from wildfire_msgs_py.dds.qos import (
+        DurabilityPolicy,
+        HistoryPolicy,
+        QoSProfile,
+        ReliabilityPolicy,
+    )
+    from wildfire_msgs_py.dds.types import deserialize as _deserialize
+    from wildfire_msgs_py.dds.types import get_message
+    from wildfire_msgs_py.dds.types import serialize as serialize_message
+
+    remove_ros_args = rclpy.remove_ros_args
+    PARAMETER_ERRORS = (ParameterError,)
+    ParameterDescriptor = get_message("rcl_interfaces/msg/ParameterDescriptor")
+    FloatingPointRange = get_message("rcl_interfaces/msg/FloatingPointRange")
+    IntegerRange = get_message("rcl_interfaces/msg/IntegerRange")
+
+    def deserialize_message(serialized_message: bytes, message_type: Any) -> Any:
+        """CDR bytes to a message (``rclpy.serialization.deserialize_message``)."""
+        return _deserialize(serialized_message, message_type)
+
+
+__all__ = [
+    "BACKEND",
+    "PARAMETER_ERRORS",
+    "DurabilityPolicy",
+    "Duration",
+    "ExternalShutdownException",
+    "FloatingPointRange",
+    "HistoryPolicy",
+    "IntegerRange",
+    "Node",
+    "Parameter",
+    "ParameterDescriptor",
+    "QoSProfile",
+    "ReliabilityPolicy",
+    "SingleThreadedExecutor",
+    "Time",
+    "deserialize_message",
+    "get_message",
+    "rclpy",
+    "remove_ros_args",
+    "serialize_message",
+]
