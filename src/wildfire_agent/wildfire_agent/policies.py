@@ -1,0 +1,91 @@
+"""Policies that choose bank actions: a TorchScript Q-network, or random.
+
+(The receding-horizon baseline lives in ``receding_horizon.py``.)
+
+A Q-network policy file is a TorchScript module ``forward(images, states) -> q`` taking
+``images`` (B, C, H, W) float32 (one per ownship) and normalised pairwise states (B, K, 5)
+float32 (one per other aircraft) and returning pairwise Q-values (B, K, 2) for the actions
+(-5 deg, +5 deg); the image branch runs once per ownship, however many aircraft it pairs with. It carries a JSON card as the TorchScript extra
+file ``wildfire_policy.json`` with at least ``{"approach": "obs" | "belief"}``. With several
+other aircraft the ownship sums its pairwise Q-values (SPEC 2.5):
+``a = argmax_a sum_j Q(s_j, a)``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from wildfire_agent.errors import AgentConfigError
+
+POLICY_CARD_FILE = "wildfire_policy.json"
+"""Name of the JSON card inside a TorchScript policy file."""
+APPROACHES = ("obs", "belief")
+"""Observation kinds a Q-network can take."""
+
+
+class RandomPolicy:
+    """Uniformly random +/-5 degree actions, one generator per aircraft."""
+
+    def __init__(self, generators: list[np.random.Generator]) -> None:
+        self.generators = generators
+
+    def act(self) -> np.ndarray:
+        """One action per aircraft, (P,) int64."""
+        return np.array([int(rng.integers(0, 2)) for rng in self.generators], dtype=np.int64)
+
+
+class TorchScriptPolicy:
+    """Greedy policy of a TorchScript Q-network file."""
+
+    def __init__(self, path: str | Path, threads: int | None = None) -> None:
+        path = Path(path)
+        if not path.is_file():
+            raise AgentConfigError(f"policy file {path}: no such file (expected a TorchScript .pt)")
+        extra_files = {POLICY_CARD_FILE: ""}
+        try:
+            self.module = torch.jit.load(str(path), map_location="cpu", _extra_files=extra_files)
+        except (RuntimeError, ValueError) as error:
+            first_line = str(error).strip().splitlines()[0] if str(error).strip() else "unreadable"
+            raise AgentConfigError(
+                f"policy file {path}: not a TorchScript module ({first_line})"
+            ) from None
+        try:
+            self.card: dict[str, Any] = json.loads(extra_files[POLICY_CARD_FILE] or "null") or {}
+        except json.JSONDecodeError:
+            self.card = {}
+        approach = self.card.get("approach")
+        if approach not in APPROACHES:
+            raise AgentConfigError(
+                f"policy file {path}: missing or bad '{POLICY_CARD_FILE}' card "
+                f"(expected approach 'obs' or 'belief', got {approach!r})"
+            )
+        self.path = path
+        self.approach: str = approach
+        self.module.eval()
+        if threads is not None:
+            torch.set_num_threads(threads)
+
+    def q_values(self, images: np.ndarray, pair_states: np.ndarray) -> np.ndarray:
+        """Summed pairwise Q-values (B, 2) from images (B, C, H, W) and states (B, K, 5)."""
+        image_tensor = torch.from_numpy(np.ascontiguousarray(images, dtype=np.float32))
+        state_tensor = torch.from_numpy(np.ascontiguousarray(pair_states, dtype=np.float32))
+        with torch.inference_mode():
+            q = self.module(image_tensor, state_tensor)
+        return q.sum(dim=1).numpy().astype(np.float64)
+
+    def act(self, images: np.ndarray, pair_states: np.ndarray) -> np.ndarray:
+        """Greedy actions (B,) int64."""
+        return self.q_values(images, pair_states).argmax(axis=-1).astype(np.int64)
+
+
+def save_policy_card(extra: dict[str, Any]) -> dict[str, str]:
+    """``_extra_files`` argument for ``torch.jit.save`` carrying a policy card."""
+    return {POLICY_CARD_FILE: json.dumps(extra, indent=2, sort_keys=True)}
+
+
+__all__ = ["APPROACHES", "POLICY_CARD_FILE", "RandomPolicy", "TorchScriptPolicy", "save_policy_card"]

@@ -1,0 +1,106 @@
+"""The belief map shared by the team (SPEC 2.4), batched over environments.
+
+Per cell: believed burning (bool) and the time since the cell was last visited, capped at
+255 s. Time is counted in integer deciseconds (one decision = 1 ds), so ages are exact and
+runs are bit-reproducible; ``age_s()`` converts. Rather than ageing every cell each
+decision, the map stores the time of each cell's last visit: a decision then only touches
+the few hundred visited cells, and ages are computed when an image or message needs them.
+
+Team reward of a decision = number of visited cells believed not burning that are burning
+(each cell counted once however many aircraft see it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wildfire_sim.grid import GRID_SIZE
+
+AGE_CAP_S = 255.0
+"""Ages saturate here (and an unvisited cell starts here)."""
+TICKS_PER_S = 10
+"""Belief clock resolution: one tick per decision (0.1 s)."""
+AGE_CAP_TICKS = int(AGE_CAP_S * TICKS_PER_S)
+
+
+class SharedBelief:
+    """Belief maps of ``num_envs`` environments.
+
+    Arrays: ``burning`` (E, H, W) bool; ``last_visit`` (E, H, W) int64 tick of the last
+    visit; ``now`` (E,) int64 current tick.
+    """
+
+    def __init__(self, num_envs: int, grid_size: int = GRID_SIZE) -> None:
+        self.grid_size = grid_size
+        self.burning = np.zeros((num_envs, grid_size, grid_size), dtype=bool)
+        self.last_visit = np.full((num_envs, grid_size, grid_size), -AGE_CAP_TICKS, np.int64)
+        self.now = np.zeros(num_envs, dtype=np.int64)
+
+    @property
+    def num_envs(self) -> int:
+        return self.burning.shape[0]
+
+    def reset(self, env_ids: np.ndarray | list[int], believed_burning: np.ndarray) -> None:
+        """Start over: believed burning = ``believed_burning`` (the ignition seed), age = cap."""
+        env_ids = np.atleast_1d(np.asarray(env_ids, dtype=np.int64))
+        self.burning[env_ids] = believed_burning
+        self.now[env_ids] = 0
+        self.last_visit[env_ids] = -AGE_CAP_TICKS
+
+    def tick(self, env_ids: np.ndarray | None = None) -> None:
+        """Advance the clock of every (or the given) environment by one decision."""
+        if env_ids is None:
+            self.now += 1
+        else:
+            self.now[env_ids] += 1
+
+    def visit(self, env: np.ndarray, cell: np.ndarray, truth: np.ndarray) -> np.ndarray:
+        """Apply visits, return the team reward per environment, (E,) int64.
+
+        ``env``/``cell`` are the visited cells (as from ``visits.visited_cells``: no
+        duplicates) and ``truth`` the true burning value of each, at the current tick.
+        """
+        burning_flat = self.burning.reshape(self.num_envs, -1)
+        believed = burning_flat[env, cell]
+        newly_seen = truth & ~believed
+        reward = np.bincount(env[newly_seen], minlength=self.num_envs)
+        burning_flat[env, cell] = truth
+        self.last_visit.reshape(self.num_envs, -1)[env, cell] = self.now[env]
+        return reward.astype(np.int64)
+
+    def age_ticks(self) -> np.ndarray:
+        """Deciseconds since each cell was last visited, capped, (E, H, W) int64."""
+        return np.minimum(self.now[:, None, None] - self.last_visit, AGE_CAP_TICKS)
+
+    def age_s(self) -> np.ndarray:
+        """Seconds since each cell was last visited, capped at 255, (E, H, W) float32."""
+        return (self.age_ticks() / TICKS_PER_S).astype(np.float32)
+
+
+def belief_iou(believed: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """Intersection over union of believed-burning and burning cells, per environment."""
+    believed, truth = np.asarray(believed, bool), np.asarray(truth, bool)
+    axes = tuple(range(1, believed.ndim))
+    union = (believed | truth).sum(axis=axes)
+    intersection = (believed & truth).sum(axis=axes)
+    return np.where(union > 0, intersection / np.maximum(union, 1), 1.0)
+
+
+def mean_age_at_burning(age_s: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """Mean belief age (s) over the truly burning cells, per environment (NaN if none)."""
+    truth = np.asarray(truth, bool)
+    axes = tuple(range(1, truth.ndim))
+    count = truth.sum(axis=axes)
+    total = np.where(truth, age_s, 0.0).sum(axis=axes)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / count, np.nan)
+
+
+__all__ = [
+    "AGE_CAP_S",
+    "AGE_CAP_TICKS",
+    "TICKS_PER_S",
+    "SharedBelief",
+    "belief_iou",
+    "mean_age_at_burning",
+]

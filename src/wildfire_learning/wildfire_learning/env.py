@@ -1,0 +1,317 @@
+"""Batched multi-agent wildfire surveillance environment.
+
+:class:`WildfireVecEnv` steps ``num_envs`` independent episodes of ``n_aircraft`` aircraft at
+once (a leading environment dimension on every array, done masks instead of branches), in
+the style of Gymnasium's vector environments; :mod:`wildfire_learning.parallel_env` wraps one
+episode as a PettingZoo ``ParallelEnv``. It composes the pure modules the ROS nodes use —
+fire (``wildfire_sim``), dynamics, sensor, rewards (``wildfire_agent``), belief
+(``wildfire_belief``) — so the distributed system computes exactly what this computes.
+
+Action space
+    Per aircraft, ``Discrete(2)``: 0 banks -5 degrees, 1 banks +5 degrees (limit 50 degrees).
+Observation space (``observation="obs"`` or ``"belief"``)
+    ``image``: the sensor image (1, 30, 40) in {0, 1}, or the ego belief image (2, 100, 100)
+    in [0, 1]; ``state``: normalised pairwise states (K, 5), K = max(N - 1, 1).
+    ``observation="none"`` skips images (for the receding-horizon and random controllers).
+Rewards
+    ``reward="obs"``: the observation-based reward r1 + r2 + r3 + r4 of each aircraft.
+    ``reward="belief"``: the team reward (newly seen burning cells) minus
+    ``belief_proximity_weight * sum_j exp(-rho_j / c)``. Either way ``team_reward`` (the SPEC
+    2.7 score increment) is returned too, and ``scores`` accumulates it.
+Starting state
+    Episode seed -> shape (uniform over ``shapes``), wind (uniform in [-max_wind, max_wind]^2
+    unless fixed), fuel, start poses 150-300 m around the seed at uniform bearing and heading.
+    The fire pre-burns ``preburn_steps`` fire steps; the belief starts as the ignition seed
+    with every age at 255 s.
+Episode end
+    Terminated when, after a fire step, a burning cell lies within ``border_cells`` of the
+    map edge; truncated after ``max_duration_s``. The fire never depends on the aircraft, so
+    a seed fixes the episode length for every controller.
+Decision order (one ``step``)
+    bank action -> fly 0.1 s -> every 25th decision a fire step -> cells within 100 m of any
+    aircraft are visited (belief <- truth, age <- 0) -> rewards -> end check.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from wildfire_agent import dynamics, pairwise, sensor
+from wildfire_agent.dynamics import AircraftState
+from wildfire_agent.rewards import (
+    FireFieldMaps,
+    ObservationRewardWeights,
+    fire_field_maps,
+    observation_rewards,
+    proximity_sum,
+)
+from wildfire_belief.belief import SharedBelief
+from wildfire_belief.ego_image import ego_images
+from wildfire_belief.visits import visit_windows, visited_cells
+from wildfire_learning.errors import LearningError
+from wildfire_sim.fire import BatchedFire, FireParams
+from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.seeding import Stream, generator
+from wildfire_sim.shapes import Shape, seed_centre_m, shape_masks
+
+DECISIONS_PER_FIRE_STEP = 25
+"""2.5 s fire steps at 10 Hz decisions."""
+OBSERVATION_KINDS = ("obs", "belief", "none")
+REWARD_KINDS = ("obs", "belief")
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Scenario, observation and reward settings of the environment."""
+
+    n_aircraft: int = 2
+    """Aircraft per episode."""
+    observation: str = "obs"
+    """``obs`` (sensor image), ``belief`` (ego belief image) or ``none``."""
+    reward: str = "obs"
+    """``obs`` (observation-based reward) or ``belief`` (team reward - proximity)."""
+    shapes: tuple[str, ...] = ("circular",)
+    """Fire shapes drawn uniformly per episode."""
+    wind: tuple[float, float] | None = None
+    """Fixed wind (wx, wy); None draws it per episode."""
+    max_wind: float = 0.8
+    """Bound of each random wind component."""
+    preburn_steps: int = 30
+    """Fire steps before the aircraft start."""
+    max_duration_s: float = 400.0
+    """Truncation time of the flight."""
+    border_cells: int = 6
+    """The episode ends when fire comes this close to the map edge."""
+    start_range_m: tuple[float, float] = (150.0, 300.0)
+    """Start distance from the seed centre."""
+    obs_weights: ObservationRewardWeights = field(default_factory=ObservationRewardWeights)
+    """Weights of the observation-based reward."""
+    belief_proximity_weight: float = 0.5
+    """lambda_p of the belief reward's proximity penalty."""
+    fire: FireParams = field(default_factory=FireParams)
+    """Fire-model parameters."""
+
+    def validate(self) -> EnvConfig:
+        """Return self, or raise :class:`LearningError` naming the bad field."""
+        if self.n_aircraft < 1:
+            raise LearningError(f"aircraft: expected >= 1, got {self.n_aircraft}")
+        if self.observation not in OBSERVATION_KINDS:
+            raise LearningError(f"observation: expected one of {OBSERVATION_KINDS}, got {self.observation!r}")
+        if self.reward not in REWARD_KINDS:
+            raise LearningError(f"reward: expected one of {REWARD_KINDS}, got {self.reward!r}")
+        if not self.shapes:
+            raise LearningError("shapes: expected at least one fire shape")
+        for name in self.shapes:
+            Shape.parse(name)
+        if not 0.0 <= self.max_wind <= 1.0:
+            raise LearningError(f"max_wind: expected a number in [0, 1], got {self.max_wind}")
+        if self.max_duration_s <= 0:
+            raise LearningError(f"duration: expected > 0 s, got {self.max_duration_s}")
+        if self.preburn_steps < 0:
+            raise LearningError(f"preburn_steps: expected >= 0, got {self.preburn_steps}")
+        self.fire.validate()
+        return self
+
+    @property
+    def max_decisions(self) -> int:
+        return int(round(self.max_duration_s / dynamics.DECISION_PERIOD_S))
+
+
+class Scenario(NamedTuple):
+    """What an episode seed fixes besides the fire's own random numbers."""
+
+    shape: Shape
+    wind: np.ndarray
+    start: AircraftState
+
+
+def draw_scenario(seed: int, config: EnvConfig) -> Scenario:
+    """Shape, wind and start poses of episode ``seed`` (its SCENARIO stream, in that order)."""
+    rng = generator(seed, Stream.SCENARIO)
+    shape = Shape.parse(config.shapes[int(rng.integers(len(config.shapes)))])
+    drawn_wind = rng.uniform(-config.max_wind, config.max_wind, size=2)
+    wind = np.asarray(config.wind, dtype=np.float64) if config.wind is not None else drawn_wind
+    centre = seed_centre_m(shape_masks(shape).ignition)
+    low, high = config.start_range_m
+    start = dynamics.start_poses(rng, config.n_aircraft, centre, low, high)
+    return Scenario(shape=shape, wind=wind, start=start)
+
+
+class StepResult(NamedTuple):
+    """What :meth:`WildfireVecEnv.step` returns; arrays lead with the environment dim."""
+
+    observations: dict[str, np.ndarray]
+    rewards: np.ndarray
+    """(E, N) float64: per-aircraft training reward (0 in finished environments)."""
+    team_reward: np.ndarray
+    """(E,) int64: newly seen burning cells this decision (the score increment)."""
+    terminated: np.ndarray
+    """(E,) bool: fire reached the border this decision."""
+    truncated: np.ndarray
+    """(E,) bool: time limit reached this decision."""
+
+
+class WildfireVecEnv:
+    """``num_envs`` wildfire episodes stepped together (see the module docstring)."""
+
+    def __init__(self, config: EnvConfig, num_envs: int) -> None:
+        self.config = config.validate()
+        if num_envs < 1:
+            raise LearningError(f"num_envs: expected >= 1, got {num_envs}")
+        self.num_envs = num_envs
+        n = config.n_aircraft
+        self.fire = BatchedFire(num_envs, config.fire)
+        self.belief = SharedBelief(num_envs)
+        self.aircraft = AircraftState(
+            x_m=np.zeros((num_envs, n)),
+            y_m=np.zeros((num_envs, n)),
+            heading_rad=np.zeros((num_envs, n)),
+            bank_steps=np.zeros((num_envs, n), dtype=np.int64),
+        )
+        self.seeds = np.zeros(num_envs, dtype=np.int64)
+        self.shapes: list[Shape] = [Shape.CIRCULAR] * num_envs
+        self.decisions = np.zeros(num_envs, dtype=np.int64)
+        self.scores = np.zeros(num_envs, dtype=np.int64)
+        self.done = np.ones(num_envs, dtype=bool)
+        self.terminated = np.zeros(num_envs, dtype=bool)
+        self._maps: FireFieldMaps | None = None
+        self._maps_stale = np.ones(num_envs, dtype=bool)
+
+    # ------------------------------------------------------------------ reset
+    def reset(
+        self, seeds: np.ndarray | list[int], env_ids: np.ndarray | list[int] | None = None
+    ) -> dict[str, np.ndarray]:
+        """Start new episodes with ``seeds`` in ``env_ids`` (default: all environments)."""
+        env_ids = np.arange(self.num_envs) if env_ids is None else np.asarray(env_ids, np.int64)
+        seeds = np.asarray(seeds, dtype=np.int64).reshape(-1)
+        if seeds.size != env_ids.size:
+            raise LearningError(f"reset: got {seeds.size} seeds for {env_ids.size} environments")
+        if np.any(seeds < 0):
+            raise LearningError("seed: expected numbers >= 0")
+        scenarios = [draw_scenario(int(seed), self.config) for seed in seeds]
+        masks = [shape_masks(s.shape) for s in scenarios]
+        self.fire.reset(
+            env_ids,
+            seeds,
+            np.stack([m.ignition for m in masks]),
+            np.stack([m.fuel for m in masks]),
+            np.stack([s.wind for s in scenarios]),
+        )
+        self.belief.reset(env_ids, self.fire.burning[env_ids])
+        preburn = np.zeros(self.num_envs, dtype=bool)
+        preburn[env_ids] = True
+        for _ in range(self.config.preburn_steps):
+            self.fire.step(preburn)
+        for k, (env, scenario) in enumerate(zip(env_ids.tolist(), scenarios, strict=True)):
+            for field_now, field_start in zip(self.aircraft, scenario.start, strict=True):
+                field_now[env] = field_start
+            self.shapes[env] = scenario.shape
+            self.seeds[env] = seeds[k]
+        self.decisions[env_ids] = 0
+        self.scores[env_ids] = 0
+        self.terminated[env_ids] = self._fire_at_border(env_ids)
+        self.done[env_ids] = self.terminated[env_ids]
+        self._maps_stale[env_ids] = True
+        return self.observe()
+
+    # ------------------------------------------------------------------- step
+    def step(self, actions: np.ndarray) -> StepResult:
+        """Advance every unfinished environment by one decision with ``actions`` (E, N)."""
+        actions = np.asarray(actions, dtype=np.int64)
+        if actions.shape != (self.num_envs, self.config.n_aircraft):
+            raise LearningError(
+                f"actions: expected shape {(self.num_envs, self.config.n_aircraft)}, "
+                f"got {actions.shape}"
+            )
+        active = ~self.done
+        moved = dynamics.step(self.aircraft, actions)
+        for field_now, field_moved in zip(self.aircraft, moved, strict=True):
+            field_now[active] = field_moved[active]
+        self.decisions += active
+        fire_due = active & (self.decisions % DECISIONS_PER_FIRE_STEP == 0)
+        if fire_due.any():
+            self.fire.step(fire_due)
+            self._maps_stale |= fire_due
+        team_reward = self._visit(active)
+        self.scores += team_reward
+
+        if self.config.reward == "obs":
+            rewards = observation_rewards(
+                self.maps, self.aircraft.x_m, self.aircraft.y_m, self.aircraft.bank_rad,
+                self.config.obs_weights,
+            )
+        else:
+            proximity = proximity_sum(
+                self.aircraft.x_m, self.aircraft.y_m, self.config.obs_weights.proximity_scale_m
+            )
+            rewards = team_reward[:, None] - self.config.belief_proximity_weight * proximity
+        rewards = np.where(active[:, None], rewards, 0.0)
+
+        terminated = np.zeros(self.num_envs, dtype=bool)
+        if fire_due.any():
+            due = np.flatnonzero(fire_due)
+            terminated[due] = self._fire_at_border(due)
+        truncated = active & ~terminated & (self.decisions >= self.config.max_decisions)
+        self.terminated |= terminated
+        self.done |= terminated | truncated
+        return StepResult(self.observe(), rewards, team_reward, terminated, truncated)
+
+    def _visit(self, active: np.ndarray) -> np.ndarray:
+        """Visit the cells near every aircraft of active environments; team reward (E,)."""
+        self.belief.tick(np.flatnonzero(active))
+        windows = visit_windows(self.aircraft.x_m, self.aircraft.y_m)
+        env, cell = visited_cells(windows)
+        keep = active[env]
+        env, cell = env[keep], cell[keep]
+        truth = self.fire.burning.reshape(self.num_envs, -1)[env, cell]
+        return self.belief.visit(env, cell, truth)
+
+    def _fire_at_border(self, env_ids: np.ndarray) -> np.ndarray:
+        band = self.config.border_cells
+        burning = self.fire.burning[env_ids]
+        inner = burning[:, band : GRID_SIZE - band, band : GRID_SIZE - band].sum(axis=(1, 2))
+        return burning.sum(axis=(1, 2)) > inner
+
+    # ------------------------------------------------------------ observation
+    @property
+    def maps(self) -> FireFieldMaps:
+        """Reward look-up maps of the current fires (recomputed after fire steps)."""
+        if self._maps is None:
+            self._maps = fire_field_maps(self.fire.burning, self.config.obs_weights)
+        elif self._maps_stale.any():
+            stale = np.flatnonzero(self._maps_stale)
+            fresh = fire_field_maps(self.fire.burning[stale], self.config.obs_weights)
+            self._maps.distance_m[stale] = fresh.distance_m
+            self._maps.clear_count[stale] = fresh.clear_count
+        self._maps_stale[:] = False
+        return self._maps
+
+    def pair_states(self) -> np.ndarray:
+        """Normalised pairwise states (E, N, K, 5) float32."""
+        return pairwise.normalise(pairwise.pairwise_states(self.aircraft))
+
+    def observe(self) -> dict[str, np.ndarray]:
+        """Observations of every aircraft (see the module docstring)."""
+        kind = self.config.observation
+        if kind == "none":
+            return {"state": self.pair_states()}
+        a = self.aircraft
+        if kind == "obs":
+            images = sensor.observe(self.fire.burning, a.x_m, a.y_m, a.heading_rad)[:, :, None]
+            images = images.astype(np.float32)
+        else:
+            images = ego_images(self.belief.burning, self.belief.age_s(), a.x_m, a.y_m, a.heading_rad)
+        return {"image": images, "state": self.pair_states()}
+
+
+__all__ = [
+    "DECISIONS_PER_FIRE_STEP",
+    "EnvConfig",
+    "Scenario",
+    "StepResult",
+    "WildfireVecEnv",
+    "draw_scenario",
+]
