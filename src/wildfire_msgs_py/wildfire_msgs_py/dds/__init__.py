@@ -37,10 +37,10 @@ def ok(*, context: Context | None = None) -> bool:
 def shutdown(*, context: Context | None = None, **_ignored: Any) -> None:
     """Shut down; raises RuntimeError when not initialized (as rclpy)."""
     global _global_executor
-    (context or default_context).shutdown()
     if _global_executor is not None:
         _global_executor.shutdown()
         _global_executor = None
+    (context or default_context).shutdown()
 
 
 def try_shutdown(*, context: Context | None = None, **_ignored: Any) -> None:

@@ -6,11 +6,12 @@ participant index on the loopback discovery ports, one set of DDS threads).
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import weakref
 from typing import TYPE_CHECKING, Any
 
-from cyclonedds.core import GuardCondition
+from cyclonedds.core import DDSException, GuardCondition
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.topic import Topic
 
@@ -104,7 +105,8 @@ class Context:
                 raise RuntimeError("Context must be initialized before it can be shutdown")
             self._ok = False
             for guard in list(self._wake_guards):
-                guard.set(True)
+                with contextlib.suppress(DDSException):
+                    guard.set(True)
             for node in list(self._nodes):
                 node.destroy_node()
             self._topics.clear()

@@ -12,7 +12,7 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING, Any
 
-from cyclonedds.core import GuardCondition, WaitSet
+from cyclonedds.core import DDSException, GuardCondition, WaitSet
 
 from wildfire_msgs_py.dds.context import Context, ExternalShutdownException, default_context
 
@@ -55,8 +55,7 @@ class SingleThreadedExecutor:
         """Stop spinning and forget every node."""
         self._is_shutdown = True
         self._nodes.clear()
-        if self._guard is not None:
-            self._guard.set(True)
+        self._set_guard(True)
         self._wait_set = None
         self._attached = ()
         return True
@@ -139,8 +138,15 @@ class SingleThreadedExecutor:
                     self._wait_set.attach(subscription.condition)
             self._attached = key
         self._wait_set.wait(timeout_ns)
+        self._set_guard(False)
+
+    def _set_guard(self, triggered: bool) -> None:
+        # The guard dies with the participant when the context shuts down first.
         if self._guard is not None:
-            self._guard.set(False)
+            try:
+                self._guard.set(triggered)
+            except DDSException:
+                self._guard = None
 
 
 __all__ = ["SingleThreadedExecutor"]

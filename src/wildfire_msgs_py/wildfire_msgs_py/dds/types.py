@@ -62,6 +62,9 @@ _BASE_TYPES: dict[str, tuple[Any, str | None, str | None, Any]] = {
     "string": (str, None, None, ""),
 }
 
+# Default values declared in the .msg files of common_interfaces (the type store drops them).
+_FIELD_DEFAULTS: dict[tuple[str, str], Any] = {("geometry_msgs/msg/Quaternion", "w"): 1.0}
+
 _TYPE_NAME = re.compile(r"^([A-Za-z][A-Za-z0-9_]*)/(?:msg/)?([A-Z][A-Za-z0-9]*)$")
 _DDS_TYPE_NAME = re.compile(r"^([A-Za-z][A-Za-z0-9_]*)::msg::dds_::([A-Za-z0-9]+)_$")
 _BUILD_LOCK = threading.RLock()
@@ -293,7 +296,11 @@ def _build(type_name: str) -> Any:
     namespace = IdlMeta.__prepare__(name, (IdlStruct,), typename=f"{package}::msg::dds_::{name}_")
     for field_name, (node_type, detail) in fields:
         namespace["__annotations__"][field_name] = _annotation(node_type, detail)
-        namespace[field_name] = dataclasses.field(default_factory=_default_factory(node_type, detail))
+        factory = _default_factory(node_type, detail)
+        if (type_name, field_name) in _FIELD_DEFAULTS:
+            default = _FIELD_DEFAULTS[type_name, field_name]
+            factory = lambda default=default: default  # noqa: E731
+        namespace[field_name] = dataclasses.field(default_factory=factory)
     cls = IdlMeta(name, (IdlStruct,), namespace)
     cls = dataclasses.dataclass(cls)
     cls.__module__ = f"{package}.msg"
