@@ -23,7 +23,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from wildfire_agent.dynamics import AircraftState, apply_action, propagate
-from wildfire_agent.rewards import FireFieldMaps, ObservationRewardWeights, fire_terms
+from wildfire_agent.rewards import (
+    FireFieldMaps,
+    ObservationRewardWeights,
+    clear_count_map,
+    fire_terms,
+)
 
 
 @dataclass(frozen=True)
@@ -106,6 +111,9 @@ def plan(
     ``generators[p]`` draws aircraft p's random restarts.
     """
     horizon, restarts = config.horizon, config.restarts
+    if maps.clear_count is None:
+        # Thousands of positions get scored: read r2 from the disc-count map.
+        maps = maps._replace(clear_count=clear_count_map(maps.burning, weights.clear_radius_m))
     sequences = np.stack(
         [rng.integers(0, 2, size=(restarts, horizon)) for rng in generators]
     ).astype(np.int64)  # (P, R, T)

@@ -9,11 +9,13 @@ Per aircraft and decision, with the weights of :class:`ObservationRewardWeights`
 * ``r3 = -lambda3 * phi^2``: at most 0.38 at the 50 degree limit: fly smoothly;
 * ``r4 = -lambda4 * sum_j exp(-rho_j / c)``: c = 100 m, 1 per aircraft on top of you.
 
-``d_fire`` and ``n_clear`` are read from per-cell look-up maps computed once per fire step
-(a Euclidean distance transform and a disc count), at the cell the aircraft is over, so the
-receding-horizon planner can score thousands of hypothetical positions at the same cost as
-the environment scores one. Off the map, ``d_fire`` is measured to the nearest map cell and
-the distance outside is added (still capped); ``n_clear`` counts map cells only.
+Both are evaluated at the centre of the cell the aircraft is over. ``d_fire`` is read from a
+Euclidean distance transform computed once per fire step. ``n_clear`` is counted directly
+from the burning grid (81 cells per aircraft); the receding-horizon planner, which scores
+thousands of hypothetical positions, instead reads it from a disc-count map (one
+convolution per fire step): both give the same integer. Off the map, ``d_fire`` is measured
+to the nearest map cell with the distance outside added (still capped); ``n_clear`` counts
+map cells only.
 """
 
 from __future__ import annotations
@@ -50,41 +52,73 @@ class ObservationRewardWeights:
 
 
 class FireFieldMaps(NamedTuple):
-    """Per-cell look-up maps of one fire state, batched: (E, H, W) and padded (E, H', W')."""
+    """Per-cell look-up data of a batch of fire states."""
 
+    burning: np.ndarray
+    """The (E, H, W) burning grids the maps were computed from."""
     distance_m: np.ndarray
-    """Distance from each cell centre to the nearest burning cell centre (capped), float32."""
-    clear_count: np.ndarray
-    """Non-burning map cells within r0 of each cell centre, padded by ``pad`` cells, float32."""
-    pad: int
-    """Margin (cells) of ``clear_count`` around the map."""
+    """(E, H, W) distance from each cell centre to the nearest burning cell centre (capped)."""
+    clear_count: np.ndarray | None
+    """(E, H + 2 pad, W + 2 pad) non-burning map cells within r0 of each cell centre, or None."""
 
 
-def disc_offsets_kernel(radius_m: float) -> np.ndarray:
+def disc_kernel(radius_m: float) -> np.ndarray:
     """Square 0/1 kernel of the cells whose centre is within ``radius_m`` of the centre cell."""
     half = int(np.floor(radius_m / CELL_SIZE_M))
     offsets = np.arange(-half, half + 1) * CELL_SIZE_M
     return (offsets[:, None] ** 2 + offsets[None, :] ** 2 <= radius_m**2).astype(np.float32)
 
 
-def fire_field_maps(
-    burning: np.ndarray, weights: ObservationRewardWeights | None = None
-) -> FireFieldMaps:
-    """Look-up maps of (E, H, W) burning grids."""
-    weights = weights or ObservationRewardWeights()
-    num_envs = burning.shape[0]
-    distance = np.full(burning.shape, weights.max_distance_m, dtype=np.float32)
-    for env in range(num_envs):
+def distance_to_fire(burning: np.ndarray, max_distance_m: float) -> np.ndarray:
+    """Distance (m) from each cell centre to the nearest burning one, capped; (E, H, W)."""
+    distance = np.full(burning.shape, max_distance_m, dtype=np.float32)
+    for env in range(burning.shape[0]):
         if burning[env].any():
             edt = scipy.ndimage.distance_transform_edt(~burning[env]) * CELL_SIZE_M
-            distance[env] = np.minimum(edt, weights.max_distance_m)
-    kernel = disc_offsets_kernel(weights.clear_radius_m)
+            distance[env] = np.minimum(edt, max_distance_m)
+    return distance
+
+
+def clear_count_map(burning: np.ndarray, radius_m: float) -> np.ndarray:
+    """Non-burning map cells within ``radius_m`` of each cell centre, padded by the radius."""
+    kernel = disc_kernel(radius_m)
     pad = kernel.shape[0] // 2
-    clear = np.pad(~burning, ((0, 0), (pad, pad), (pad, pad))).astype(np.float32)
+    clear = np.pad(~burning, ((0, 0), (2 * pad, 2 * pad), (2 * pad, 2 * pad)))
     # Counts are small integers: exact in float32 whatever the convolution's order.
-    counts = F.conv2d(torch.from_numpy(clear)[:, None], torch.from_numpy(kernel)[None, None],
-                      padding=pad)
-    return FireFieldMaps(distance_m=distance, clear_count=counts[:, 0].numpy(), pad=pad)
+    counts = F.conv2d(
+        torch.from_numpy(clear.astype(np.float32))[:, None], torch.from_numpy(kernel)[None, None]
+    )
+    return counts[:, 0].numpy()
+
+
+def fire_field_maps(
+    burning: np.ndarray,
+    weights: ObservationRewardWeights | None = None,
+    with_clear_count: bool = False,
+) -> FireFieldMaps:
+    """Look-up data of (E, H, W) burning grids (the disc-count map only if asked for)."""
+    weights = weights or ObservationRewardWeights()
+    return FireFieldMaps(
+        burning=np.ascontiguousarray(burning),
+        distance_m=distance_to_fire(burning, weights.max_distance_m),
+        clear_count=clear_count_map(burning, weights.clear_radius_m) if with_clear_count else None,
+    )
+
+
+def count_clear_cells(
+    burning: np.ndarray, env: np.ndarray, row: np.ndarray, col: np.ndarray, radius_m: float
+) -> np.ndarray:
+    """Non-burning map cells within ``radius_m`` of the centres of cells (row, col) of ``env``."""
+    kernel = disc_kernel(radius_m)
+    half = kernel.shape[0] // 2
+    d_row, d_col = np.nonzero(kernel)
+    rows = row[..., None] + (d_row - half)
+    cols = col[..., None] + (d_col - half)
+    inside = (rows >= 0) & (rows < GRID_SIZE) & (cols >= 0) & (cols < GRID_SIZE)
+    values = burning[
+        env[..., None], np.clip(rows, 0, GRID_SIZE - 1), np.clip(cols, 0, GRID_SIZE - 1)
+    ]
+    return (inside & ~values).sum(axis=-1).astype(np.float64)
 
 
 def fire_terms(
@@ -98,26 +132,26 @@ def fire_terms(
     weights = weights or ObservationRewardWeights()
     col = np.floor(x_m / CELL_SIZE_M).astype(np.int64)
     row = np.floor(y_m / CELL_SIZE_M).astype(np.int64)
-    inside_col = np.clip(col, 0, GRID_SIZE - 1)
-    inside_row = np.clip(row, 0, GRID_SIZE - 1)
     # Off the map: add how far outside the map the aircraft is.
     outside = np.hypot(
         np.maximum(np.maximum(-x_m, x_m - GRID_SIZE * CELL_SIZE_M), 0.0),
         np.maximum(np.maximum(-y_m, y_m - GRID_SIZE * CELL_SIZE_M), 0.0),
     )
-    distance = np.minimum(
-        maps.distance_m[env, inside_row, inside_col] + outside, weights.max_distance_m
-    )
-    pad = maps.pad
-    padded_size = maps.clear_count.shape[-1]
-    in_pad = (row >= -pad) & (row < GRID_SIZE + pad) & (col >= -pad) & (col < GRID_SIZE + pad)
-    clear = np.where(
-        in_pad,
-        maps.clear_count[
-            env, np.clip(row + pad, 0, padded_size - 1), np.clip(col + pad, 0, padded_size - 1)
-        ],
-        0.0,
-    )
+    nearest = maps.distance_m[env, np.clip(row, 0, GRID_SIZE - 1), np.clip(col, 0, GRID_SIZE - 1)]
+    distance = np.minimum(nearest + outside, weights.max_distance_m)
+    if maps.clear_count is None:
+        clear = count_clear_cells(maps.burning, env, row, col, weights.clear_radius_m)
+    else:
+        pad = (maps.clear_count.shape[-1] - GRID_SIZE) // 2
+        padded = maps.clear_count.shape[-1]
+        in_pad = (row >= -pad) & (row < GRID_SIZE + pad) & (col >= -pad) & (col < GRID_SIZE + pad)
+        clear = np.where(
+            in_pad,
+            maps.clear_count[
+                env, np.clip(row + pad, 0, padded - 1), np.clip(col + pad, 0, padded - 1)
+            ],
+            0.0,
+        ).astype(np.float64)
     return -weights.distance * distance - weights.clear_cells * clear
 
 
@@ -151,7 +185,10 @@ def observation_rewards(
 __all__ = [
     "FireFieldMaps",
     "ObservationRewardWeights",
-    "disc_offsets_kernel",
+    "clear_count_map",
+    "count_clear_cells",
+    "disc_kernel",
+    "distance_to_fire",
     "fire_field_maps",
     "fire_terms",
     "observation_rewards",

@@ -30,13 +30,19 @@ RANGES_M = MIN_RANGE_M + (MAX_RANGE_M - MIN_RANGE_M) * (np.arange(N_RANGES) / (N
 """Range of each image column."""
 
 
+_COS_BEARING = np.cos(BEARINGS_RAD)[:, None]
+_SIN_BEARING = np.sin(BEARINGS_RAD)[:, None]
+
+
 def sample_points(
     x_m: np.ndarray, y_m: np.ndarray, heading_rad: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Map-frame (x, y) of every sample, each shaped ``(*pose_shape, 30, 40)``."""
-    direction = np.asarray(heading_rad)[..., None] + BEARINGS_RAD
-    dx = np.cos(direction)[..., None] * RANGES_M
-    dy = np.sin(direction)[..., None] * RANGES_M
+    cos_h = np.cos(heading_rad)[..., None, None]
+    sin_h = np.sin(heading_rad)[..., None, None]
+    # cos(h + b) = cos h cos b - sin h sin b, sin(h + b) = sin h cos b + cos h sin b.
+    dx = (cos_h * _COS_BEARING - sin_h * _SIN_BEARING) * RANGES_M
+    dy = (sin_h * _COS_BEARING + cos_h * _SIN_BEARING) * RANGES_M
     return np.asarray(x_m)[..., None, None] + dx, np.asarray(y_m)[..., None, None] + dy
 
 
@@ -52,9 +58,12 @@ def observe(
     col = np.floor(sx / CELL_SIZE_M).astype(np.intp)
     row = np.floor(sy / CELL_SIZE_M).astype(np.intp)
     inside = (row >= 0) & (row < GRID_SIZE) & (col >= 0) & (col < GRID_SIZE)
+    np.clip(row, 0, GRID_SIZE - 1, out=row)
+    np.clip(col, 0, GRID_SIZE - 1, out=col)
     env = np.arange(burning.shape[0]).reshape(-1, *([1] * (row.ndim - 1)))
-    values = burning[env, np.clip(row, 0, GRID_SIZE - 1), np.clip(col, 0, GRID_SIZE - 1)]
-    return (values & inside).astype(np.uint8)
+    values = burning[env, row, col]
+    values &= inside
+    return values.view(np.uint8)
 
 
 __all__ = ["BEARINGS_RAD", "N_BEARINGS", "N_RANGES", "RANGES_M", "observe", "sample_points"]

@@ -44,6 +44,7 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.rewards import (
     FireFieldMaps,
     ObservationRewardWeights,
+    distance_to_fire,
     fire_field_maps,
     observation_rewards,
     proximity_sum,
@@ -266,7 +267,7 @@ class WildfireVecEnv:
         env, cell = visited_cells(windows)
         keep = active[env]
         env, cell = env[keep], cell[keep]
-        truth = self.fire.burning.reshape(self.num_envs, -1)[env, cell]
+        truth = self.fire.burning[env, cell // GRID_SIZE, cell % GRID_SIZE]
         return self.belief.visit(env, cell, truth)
 
     def _fire_at_border(self, env_ids: np.ndarray) -> np.ndarray:
@@ -278,14 +279,15 @@ class WildfireVecEnv:
     # ------------------------------------------------------------ observation
     @property
     def maps(self) -> FireFieldMaps:
-        """Reward look-up maps of the current fires (recomputed after fire steps)."""
+        """Reward look-up data of the current fires (refreshed after fire steps)."""
         if self._maps is None:
             self._maps = fire_field_maps(self.fire.burning, self.config.obs_weights)
         elif self._maps_stale.any():
             stale = np.flatnonzero(self._maps_stale)
-            fresh = fire_field_maps(self.fire.burning[stale], self.config.obs_weights)
-            self._maps.distance_m[stale] = fresh.distance_m
-            self._maps.clear_count[stale] = fresh.clear_count
+            burning = np.ascontiguousarray(self.fire.burning)
+            distance = self._maps.distance_m
+            distance[stale] = distance_to_fire(burning[stale], self.config.obs_weights.max_distance_m)
+            self._maps = FireFieldMaps(burning=burning, distance_m=distance, clear_count=None)
         self._maps_stale[:] = False
         return self._maps
 
