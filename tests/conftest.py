@@ -21,3 +21,28 @@ os.environ["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 100)
 os.environ.setdefault("WILDFIRE_ROS_BACKEND", "auto")
 # Matplotlib must never try to open a window in tests or CI.
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+# --- ROS runtime fixtures (wildfire_msgs_py) ----------------------------------------------------
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture
+def ros_runtime():
+    """The active runtime backend, initialized for one test and always shut down after it."""
+    from wildfire_msgs_py import runtime
+
+    runtime.rclpy.init(args=[])
+    try:
+        yield runtime
+    finally:
+        runtime.rclpy.try_shutdown()
+
+
+@pytest.fixture
+def dds_env() -> dict[str, str]:
+    """Environment for child processes: loopback config, this session's domain, no user site."""
+    env = dict(os.environ)
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
