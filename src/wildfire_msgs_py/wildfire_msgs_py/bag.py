@@ -178,8 +178,8 @@ class BagRecorder:
             self._subscribe(topic, types[0])
 
     def _subscribe(self, topic: str, type_name: str) -> None:
-        from wildfire_msgs_py.runtime import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-        from wildfire_msgs_py.runtime import get_message
+        from wildfire_msgs_py.graph import adapted_qos
+        from wildfire_msgs_py.runtime import DurabilityPolicy, ReliabilityPolicy, get_message
 
         try:
             msg_type = get_message(type_name)
@@ -187,16 +187,11 @@ class BagRecorder:
             self.node.get_logger().warning(f"not recording {topic}: unknown type {type_name}")
             self._subscriptions[topic] = None
             return
+        # Match the publishers seen (as ros2 bag record does), else the contract's QoS.
+        qos = adapted_qos(self.node, topic, depth=100)
+        reliable = qos.reliability == ReliabilityPolicy.RELIABLE
+        latched = qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
         spec = spec_for(topic)
-        reliable = spec.qos.reliable if spec else True
-        latched = spec.qos.transient_local if spec else False
-        qos = QoSProfile(
-            depth=100,
-            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-            durability=(
-                DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE
-            ),
-        )
         self.writer.add_topic(topic, type_name, reliable=reliable, transient_local=latched,
                               depth=spec.qos.depth if spec else 10)
 
@@ -270,7 +265,7 @@ def bag_info(bag_dir: str | Path) -> BagInfo:
             storage="mcap",
             size_bytes=size,
             start_ns=reader.start_time if count else 0,
-            end_ns=reader.end_time if count else 0,
+            end_ns=reader.end_time - 1 if count else 0,  # rosbags: end is exclusive
             message_count=count,
             topics=topics,
         )

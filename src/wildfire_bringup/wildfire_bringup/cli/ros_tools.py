@@ -44,39 +44,10 @@ def wait_for_topic_type(node: Any, topic: str, timeout: float | None) -> str | N
 
 
 def subscription_qos(node: Any, topic: str, depth: int = 10) -> Any:
-    """A QoS that matches the topic's publishers: the contract's, else adapted to the graph.
+    """A QoS matching the topic's publishers (see :func:`wildfire_msgs_py.graph.adapted_qos`)."""
+    from wildfire_msgs_py.graph import adapted_qos
 
-    Like ``ros2 topic echo``: reliable only if every publisher is reliable, transient-local
-    only if every publisher is (so a late ``echo`` still receives a latched map).
-    """
-    from wildfire_msgs_py.runtime import (
-        BACKEND,
-        DurabilityPolicy,
-        QoSProfile,
-        ReliabilityPolicy,
-    )
-
-    reliable, latched = True, False
-    spec = spec_for(topic)
-    if spec is not None:
-        reliable, latched = spec.qos.reliable, spec.qos.transient_local
-    elif BACKEND == "dds":
-        publishers = [e for e in node.context.graph().endpoints(topic) if e.kind == "publication"]
-        if publishers:
-            reliable = all(e.qos["reliability"] == "RELIABLE" for e in publishers)
-            latched = all(e.qos["durability"] == "TRANSIENT_LOCAL" for e in publishers)
-    else:
-        infos = node.get_publishers_info_by_topic(topic)
-        if infos:
-            reliable = all(i.qos_profile.reliability == ReliabilityPolicy.RELIABLE for i in infos)
-            latched = all(
-                i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos
-            )
-    return QoSProfile(
-        depth=depth,
-        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
-    )
+    return adapted_qos(node, topic, depth)
 
 
 def publisher_qos(topic: str, depth: int = 10) -> Any:

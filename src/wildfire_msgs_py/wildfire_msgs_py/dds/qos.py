@@ -109,11 +109,11 @@ def describe_cyclone(qos: Any) -> dict[str, str]:
     result = {"reliability": "UNKNOWN", "durability": "UNKNOWN", "history": "UNKNOWN"}
     for policy in qos or ():
         text = repr(policy)
-        if text.startswith("Policy.Reliability"):
+        if text.startswith("Policy.Reliability."):
             result["reliability"] = "BEST_EFFORT" if "BestEffort" in text else "RELIABLE"
-        elif text.startswith("Policy.Durability"):
+        elif text.startswith("Policy.Durability."):
             result["durability"] = "TRANSIENT_LOCAL" if "TransientLocal" in text else "VOLATILE"
-        elif text.startswith("Policy.History"):
+        elif text.startswith("Policy.History."):
             depth = getattr(policy, "depth", None)
             result["history"] = f"KEEP_LAST ({depth})" if depth is not None else "KEEP_ALL"
     return result
