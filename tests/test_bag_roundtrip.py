@@ -23,8 +23,9 @@ def _write_sample_bag(path: Path) -> tuple[np.ndarray, list[np.ndarray]]:
     grid = np.random.default_rng(7).random((100, 100)) < 0.25
     states = [np.array([i * 10.0, 5.0, 0.25 * i, -0.1]) for i in range(4)]
     with BagWriter(path) as writer:
-        writer.add_topic("/wildfire/fire_map", "nav_msgs/msg/OccupancyGrid", transient_local=True,
-                         depth=1)
+        writer.add_topic(
+            "/wildfire/fire_map", "nav_msgs/msg/OccupancyGrid", transient_local=True, depth=1
+        )
         writer.add_topic("/uav0/state", "std_msgs/msg/Float64MultiArray")
         for i, state in enumerate(states):
             writer.write("/uav0/state", 2_000 + 10 * i, serialize(codecs.state_to_msg(state)))
@@ -42,10 +43,13 @@ def test_written_bag_is_read_by_rosbags_anyreader(tmp_path: Path) -> None:
             "/wildfire/fire_map": "nav_msgs/msg/OccupancyGrid",
             "/uav0/state": "std_msgs/msg/Float64MultiArray",
         }
-        assert "int8[] data" in next(c for c in reader.connections
-                                     if c.topic == "/wildfire/fire_map").msgdef.data
-        decoded = [(c.topic, t, reader.deserialize(raw, c.msgtype))
-                   for c, t, raw in reader.messages()]
+        assert (
+            "int8[] data"
+            in next(c for c in reader.connections if c.topic == "/wildfire/fire_map").msgdef.data
+        )
+        decoded = [
+            (c.topic, t, reader.deserialize(raw, c.msgtype)) for c, t, raw in reader.messages()
+        ]
     assert [t for _, t, _ in decoded] == [1_000, 2_000, 2_010, 2_020, 2_030]
     np.testing.assert_array_equal(codecs.fire_grid_from_msg(decoded[0][2]), grid)
     np.testing.assert_array_equal(codecs.state_from_msg(decoded[-1][2]), states[-1])
@@ -66,7 +70,8 @@ def test_read_messages_in_time_order_and_filtered(tmp_path: Path) -> None:
     info = bag_info(bag)
     assert info.message_count == 5 and info.duration_s == pytest.approx(1_030 / 1e9)
     assert [(t.name, t.message_count) for t in info.topics] == [
-        ("/uav0/state", 4), ("/wildfire/fire_map", 1),
+        ("/uav0/state", 4),
+        ("/wildfire/fire_map", 1),
     ]
 
 
@@ -94,8 +99,9 @@ def test_bad_bags_raise_bag_error(tmp_path: Path) -> None:
 def test_recorder_records_all_topics_including_late_ones(ros_runtime: Any, tmp_path: Path) -> None:
     rt = ros_runtime
     sim = rt.Node("fire_sim")
-    fire = sim.create_publisher(rt.get_message("nav_msgs/msg/OccupancyGrid"),
-                                "/wildfire/fire_map", codecs_qos())
+    fire = sim.create_publisher(
+        rt.get_message("nav_msgs/msg/OccupancyGrid"), "/wildfire/fire_map", codecs_qos()
+    )
     grid = np.eye(100, dtype=bool)
     fire.publish(codecs.fire_grid_to_msg(grid, 5))  # before the recorder exists: latched
     recorder = BagRecorder(tmp_path / "rec", discovery_period=0.1)
@@ -128,7 +134,11 @@ def codecs_qos() -> Any:
     return FIRE_MAP.qos.profile()
 
 
-WILDFIRE = [sys.executable, "-c", "import sys; from wildfire_bringup.cli import main; sys.exit(main())"]
+WILDFIRE = [
+    sys.executable,
+    "-c",
+    "import sys; from wildfire_bringup.cli import main; sys.exit(main())",
+]
 PUBLISHER = """
 import sys, time
 from wildfire_msgs_py import codecs
@@ -151,14 +161,18 @@ def test_signal_during_recording_leaves_readable_bag(
     tmp_path: Path, dds_env: dict[str, str], stop_signal: signal.Signals
 ) -> None:
     bag = tmp_path / "signalled"
-    publisher = subprocess.Popen([sys.executable, "-c", PUBLISHER], env=dds_env,
-                                 stdout=subprocess.PIPE, text=True)
+    publisher = subprocess.Popen(
+        [sys.executable, "-c", PUBLISHER], env=dds_env, stdout=subprocess.PIPE, text=True
+    )
     recorder = None
     try:
         assert publisher.stdout is not None and publisher.stdout.readline().strip() == "ready"
         recorder = subprocess.Popen(
             [*WILDFIRE, "bag", "record", "-o", str(bag), "/wildfire/score"],
-            env=dds_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            env=dds_env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
         )
         end = time.monotonic() + 30
         while time.monotonic() < end and not list(bag.glob("*.mcap")) and recorder.poll() is None:

@@ -38,8 +38,9 @@ def test_several_nodes_on_one_executor(ros_runtime: Any) -> None:
     listener = rt.Node("listener")
     out = talker.create_publisher(string, "chatter", 10)
     relayed = relay.create_publisher(string, "relayed", 10)
-    relay.create_subscription(string, "chatter",
-                              lambda m: relayed.publish(string(data=m.data.upper())), 10)
+    relay.create_subscription(
+        string, "chatter", lambda m: relayed.publish(string(data=m.data.upper())), 10
+    )
     heard: list[str] = []
     listener.create_subscription(string, "/uav0/relayed", lambda m: heard.append(m.data), 10)
     count = iter(range(1000))
@@ -56,15 +57,17 @@ def test_transient_local_late_joiner_gets_last_grid(ros_runtime: Any) -> None:
     rt = ros_runtime
     grid_type = rt.get_message(contract.FIRE_MAP.type)
     sim = rt.Node("fire_sim")
-    publisher = sim.create_publisher(grid_type, contract.FIRE_MAP.name,
-                                     contract.FIRE_MAP.qos.profile())
+    publisher = sim.create_publisher(
+        grid_type, contract.FIRE_MAP.name, contract.FIRE_MAP.qos.profile()
+    )
     grids = [np.random.default_rng(i).random((100, 100)) < 0.2 for i in range(3)]
     for i, grid in enumerate(grids):
         publisher.publish(codecs.fire_grid_to_msg(grid, i))
     late = rt.Node("late_viewer")
     received: list[Any] = []
-    late.create_subscription(grid_type, contract.FIRE_MAP.name, received.append,
-                             contract.FIRE_MAP.qos.profile())
+    late.create_subscription(
+        grid_type, contract.FIRE_MAP.name, received.append, contract.FIRE_MAP.qos.profile()
+    )
     volatile: list[Any] = []
     late.create_subscription(grid_type, contract.FIRE_MAP.name, volatile.append, 10)
     executor = rt.SingleThreadedExecutor()
@@ -139,12 +142,19 @@ def test_pub_sub_across_processes(ros_runtime: Any, dds_env: dict[str, str]) -> 
     node = rt.Node("parent_subscriber")
     grids: list[Any] = []
     states: list[Any] = []
-    node.create_subscription(rt.get_message("nav_msgs/msg/OccupancyGrid"), "/uav1/visit",
-                             grids.append, 10)
-    node.create_subscription(rt.get_message("std_msgs/msg/Float64MultiArray"), "/uav1/state",
-                             states.append, 10)
-    child = subprocess.Popen([sys.executable, "-c", CHILD_PUBLISHER], env=dds_env,
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    node.create_subscription(
+        rt.get_message("nav_msgs/msg/OccupancyGrid"), "/uav1/visit", grids.append, 10
+    )
+    node.create_subscription(
+        rt.get_message("std_msgs/msg/Float64MultiArray"), "/uav1/state", states.append, 10
+    )
+    child = subprocess.Popen(
+        [sys.executable, "-c", CHILD_PUBLISHER],
+        env=dds_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         executor = rt.SingleThreadedExecutor()
         executor.add_node(node)
@@ -174,8 +184,14 @@ def test_dds_backend_falls_back_to_loopback_config(dds_env: dict[str, str]) -> N
         "import os; from wildfire_msgs_py.runtime import rclpy, BACKEND; rclpy.init(args=[]); "
         "print(BACKEND, os.environ['CYCLONEDDS_URI']); rclpy.shutdown()"
     )
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                         timeout=30, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=True,
+    ).stdout
     assert out.startswith("dds ")
     assert '<NetworkInterface address="127.0.0.1"/>' in out
     assert "<AllowMulticast>false</AllowMulticast>" in out
@@ -183,7 +199,12 @@ def test_dds_backend_falls_back_to_loopback_config(dds_env: dict[str, str]) -> N
 
 def test_bad_backend_choice_is_reported(dds_env: dict[str, str]) -> None:
     env = dict(dds_env, WILDFIRE_ROS_BACKEND="zenoh")
-    result = subprocess.run([sys.executable, "-c", "import wildfire_msgs_py.runtime"], env=env,
-                            capture_output=True, text=True, timeout=30)
+    result = subprocess.run(
+        [sys.executable, "-c", "import wildfire_msgs_py.runtime"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
     assert result.returncode != 0
     assert "expected one of auto, rclpy, dds" in result.stderr

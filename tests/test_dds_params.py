@@ -16,8 +16,22 @@ from wildfire_msgs_py.errors import ParameterError
 
 def test_p_values_are_yaml_typed() -> None:
     args = parse_ros_arguments(
-        ["prog", "--ros-args", "-p", "rate:=10", "-p", "gain:=0.5", "-p", "on:=true",
-         "-p", "name:=uav", "-p", "seeds:=[1, 2]", "--log-level", "warn"]
+        [
+            "prog",
+            "--ros-args",
+            "-p",
+            "rate:=10",
+            "-p",
+            "gain:=0.5",
+            "-p",
+            "on:=true",
+            "-p",
+            "name:=uav",
+            "-p",
+            "seeds:=[1, 2]",
+            "--log-level",
+            "warn",
+        ]
     )
     values = {name: o.value for name, o in args.parameters_for("/agent").items()}
     assert values == {"rate": 10, "gain": 0.5, "on": True, "name": "uav", "seeds": [1, 2]}
@@ -26,7 +40,9 @@ def test_p_values_are_yaml_typed() -> None:
 
 def test_remove_ros_args_keeps_the_rest() -> None:
     assert remove_ros_args(["prog", "--x", "--ros-args", "-p", "a:=1", "--", "tail"]) == [
-        "prog", "--x", "tail",
+        "prog",
+        "--x",
+        "tail",
     ]
 
 
@@ -37,9 +53,7 @@ def test_params_file_node_keys_and_precedence(tmp_path: Path) -> None:
         "/uav0/agent:\n  ros__parameters:\n    policy:\n      path: p.pt\n    rate: 2\n"
         "fire_sim:\n  ros__parameters:\n    rate: 3\n"
     )
-    args = parse_ros_arguments(
-        ["--ros-args", "--params-file", str(params), "-p", "agent:rate:=5"]
-    )
+    args = parse_ros_arguments(["--ros-args", "--params-file", str(params), "-p", "agent:rate:=5"])
     agent = {n: o.value for n, o in args.parameters_for("/uav0/agent").items()}
     assert agent == {"use_sim_time": True, "rate": 5, "policy.path": "p.pt"}
     fire = {n: o.value for n, o in args.parameters_for("/fire_sim").items()}
@@ -50,9 +64,15 @@ def test_params_file_node_keys_and_precedence(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(
     ("pattern", "node", "expected"),
-    [("/**", "/a", True), ("/**", "/uav0/a", True), ("/**/a", "/a", True),
-     ("/**/a", "/uav0/a", True), ("/a", "/uav0/a", False), ("/uav*/a", "/uav3/a", True),
-     ("/uav*/a", "/x/uav3/a", False)],
+    [
+        ("/**", "/a", True),
+        ("/**", "/uav0/a", True),
+        ("/**/a", "/a", True),
+        ("/**/a", "/uav0/a", True),
+        ("/a", "/uav0/a", False),
+        ("/uav*/a", "/uav3/a", True),
+        ("/uav*/a", "/x/uav3/a", False),
+    ],
 )
 def test_node_patterns(pattern: str, node: str, expected: bool) -> None:
     assert node_pattern_matches(pattern, node) is expected
@@ -78,8 +98,11 @@ def test_bad_ros_args_give_one_clear_line(argv: list[str], message: str) -> None
 
 @pytest.mark.parametrize(
     ("text", "message"),
-    [("a: [1, 2\n", "malformed YAML"), ("- 1\n", "expected a mapping"),
-     ("node:\n  params:\n    a: 1\n", "no 'ros__parameters'")],
+    [
+        ("a: [1, 2\n", "malformed YAML"),
+        ("- 1\n", "expected a mapping"),
+        ("node:\n  params:\n    a: 1\n", "no 'ros__parameters'"),
+    ],
 )
 def test_bad_params_files(tmp_path: Path, text: str, message: str) -> None:
     params = tmp_path / "bad.yaml"
@@ -97,8 +120,19 @@ def test_node_parameters_from_ros_args(tmp_path: Path) -> None:
 
     params = tmp_path / "p.yaml"
     params.write_text("/**:\n  ros__parameters:\n    speed: 18.5\n    label: from_file\n")
-    init(args=["--ros-args", "--params-file", str(params), "-p", "count:=4",
-               "-p", "gain:=2", "-r", "__ns:=/uav3"])
+    init(
+        args=[
+            "--ros-args",
+            "--params-file",
+            str(params),
+            "-p",
+            "count:=4",
+            "-p",
+            "gain:=2",
+            "-r",
+            "__ns:=/uav3",
+        ]
+    )
     try:
         node = Node("agent")
         assert node.get_fully_qualified_name() == "/uav3/agent"

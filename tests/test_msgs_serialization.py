@@ -104,13 +104,16 @@ def test_rclpy_like_field_types_and_defaults() -> None:
     msg = grid_class()
     assert isinstance(msg.data, array.array) and msg.data.typecode == "b"
     assert msg.info.origin.orientation.w == 1.0  # default from the .msg file
-    odom = deserialize(serialize(get_message("nav_msgs/msg/Odometry")()),
-                       get_message("nav_msgs/msg/Odometry"))
+    odom = deserialize(
+        serialize(get_message("nav_msgs/msg/Odometry")()), get_message("nav_msgs/msg/Odometry")
+    )
     assert isinstance(odom.pose.covariance, np.ndarray) and odom.pose.covariance.shape == (36,)
     status_class = get_message("diagnostic_msgs/msg/DiagnosticStatus")
     assert status_class.WARN == b"\x01"
     assert grid_class.get_fields_and_field_types() == {
-        "header": "std_msgs/Header", "info": "nav_msgs/MapMetaData", "data": "sequence<int8>",
+        "header": "std_msgs/Header",
+        "info": "nav_msgs/MapMetaData",
+        "data": "sequence<int8>",
     }
     assert get_message("std_msgs/msg/Float64")(data=2.5).data == 2.5
 

@@ -9,32 +9,65 @@ from pathlib import Path
 
 import pytest
 
-WILDFIRE = [sys.executable, "-c", "import sys; from wildfire_bringup.cli import main; sys.exit(main())"]
+WILDFIRE = [
+    sys.executable,
+    "-c",
+    "import sys; from wildfire_bringup.cli import main; sys.exit(main())",
+]
 
 
-def wildfire(args: list[str], env: dict[str, str], timeout: float = 30) -> subprocess.CompletedProcess:
+def wildfire(
+    args: list[str], env: dict[str, str], timeout: float = 30
+) -> subprocess.CompletedProcess:
     """Run the CLI to completion."""
-    return subprocess.run([*WILDFIRE, *args], env=env, capture_output=True, text=True,
-                          timeout=timeout)
+    return subprocess.run(
+        [*WILDFIRE, *args], env=env, capture_output=True, text=True, timeout=timeout
+    )
 
 
 @pytest.mark.dds
 @pytest.mark.timeout(90)
 def test_echo_pub_list_info_across_processes(dds_env: dict[str, str]) -> None:
     echo = subprocess.Popen(
-        [*WILDFIRE, "topic", "echo", "/uav0/bank_cmd", "std_msgs/msg/Float64", "--once",
-         "--timeout", "30"],
-        env=dds_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        [
+            *WILDFIRE,
+            "topic",
+            "echo",
+            "/uav0/bank_cmd",
+            "std_msgs/msg/Float64",
+            "--once",
+            "--timeout",
+            "30",
+        ],
+        env=dds_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     latched = subprocess.Popen(
-        [*WILDFIRE, "topic", "pub", "-r", "20", "-t", "200", "/wildfire/score",
-         "std_msgs/msg/Float64", "{data: 42.5}"],
-        env=dds_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        [
+            *WILDFIRE,
+            "topic",
+            "pub",
+            "-r",
+            "20",
+            "-t",
+            "200",
+            "/wildfire/score",
+            "std_msgs/msg/Float64",
+            "{data: 42.5}",
+        ],
+        env=dds_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     try:
         time.sleep(1.0)
-        pub = wildfire(["topic", "pub", "--once", "/uav0/bank_cmd", "std_msgs/msg/Float64",
-                        "data: -0.0872"], dds_env)
+        pub = wildfire(
+            ["topic", "pub", "--once", "/uav0/bank_cmd", "std_msgs/msg/Float64", "data: -0.0872"],
+            dds_env,
+        )
         assert pub.returncode == 0, pub.stderr
         assert "publishing #1: " in pub.stdout
         out, err = echo.communicate(timeout=30)
@@ -47,8 +80,7 @@ def test_echo_pub_list_info_across_processes(dds_env: dict[str, str]) -> None:
 
         # Type discovered from the graph; the contract's transient-local QoS means a late
         # echo still gets the value.
-        typed = wildfire(["topic", "echo", "/wildfire/score", "--once", "--timeout", "20"],
-                         dds_env)
+        typed = wildfire(["topic", "echo", "/wildfire/score", "--once", "--timeout", "20"], dds_env)
         assert typed.returncode == 0, typed.stderr
         assert typed.stdout.startswith("data: 42.5\n---")
 
@@ -89,8 +121,9 @@ def test_bad_input_gives_one_line_and_nonzero_exit(
 
 @pytest.mark.dds
 def test_echo_of_silent_topic_times_out_cleanly(dds_env: dict[str, str]) -> None:
-    result = wildfire(["topic", "echo", "/silent", "std_msgs/msg/String", "--timeout", "0.5"],
-                      dds_env)
+    result = wildfire(
+        ["topic", "echo", "/silent", "std_msgs/msg/String", "--timeout", "0.5"], dds_env
+    )
     assert result.returncode == 1
     assert "no message on /silent within 0.5 s" in result.stderr
 

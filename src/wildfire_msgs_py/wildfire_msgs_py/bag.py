@@ -82,10 +82,15 @@ class BagInfo:
 
 def _rosbags_qos(reliable: bool, transient_local: bool, depth: int) -> Qos:
     return Qos(
-        QosHistory.KEEP_LAST, depth,
+        QosHistory.KEEP_LAST,
+        depth,
         QosReliability.RELIABLE if reliable else QosReliability.BEST_EFFORT,
         QosDurability.TRANSIENT_LOCAL if transient_local else QosDurability.VOLATILE,
-        _INFINITE, _INFINITE, QosLiveliness.AUTOMATIC, _INFINITE, False,
+        _INFINITE,
+        _INFINITE,
+        QosLiveliness.AUTOMATIC,
+        _INFINITE,
+        False,
     )
 
 
@@ -99,8 +104,9 @@ class BagWriter:
         if not self.path.parent.is_dir():
             raise BagError(f"bag output {self.path}: parent directory does not exist")
         try:
-            self._writer: Writer | None = Writer(self.path, version=9,
-                                                 storage_plugin=StoragePlugin.MCAP)
+            self._writer: Writer | None = Writer(
+                self.path, version=9, storage_plugin=StoragePlugin.MCAP
+            )
             self._writer.open()
         except (WriterError, OSError) as error:
             raise BagError(f"bag output {self.path}: cannot create ({error})") from None
@@ -111,8 +117,15 @@ class BagWriter:
         """True once ``add_topic`` was called for ``topic``."""
         return topic in self._connections
 
-    def add_topic(self, topic: str, type_name: str, *, reliable: bool = True,
-                  transient_local: bool = False, depth: int = 10) -> None:
+    def add_topic(
+        self,
+        topic: str,
+        type_name: str,
+        *,
+        reliable: bool = True,
+        transient_local: bool = False,
+        depth: int = 10,
+    ) -> None:
         """Declare a topic (its schema is the ROS 2 Jazzy definition of ``type_name``)."""
         if self._writer is None:
             raise BagError(f"bag {self.path}: already closed")
@@ -120,7 +133,9 @@ class BagWriter:
         if name not in typestore().fielddefs:
             raise UnknownMessageTypeError(f"message type {type_name!r} is not a ROS 2 Jazzy type")
         self._connections[topic] = self._writer.add_connection(
-            topic, name, typestore=typestore(),
+            topic,
+            name,
+            typestore=typestore(),
             offered_qos_profiles=[_rosbags_qos(reliable, transient_local, depth)],
         )
 
@@ -152,8 +167,14 @@ class BagRecorder:
     Spin ``recorder.node`` (``rclpy.spin`` or an executor) and call ``close()`` at the end.
     """
 
-    def __init__(self, output: str | Path, topics: Iterable[str] | None = None, *,
-                 node_name: str = "wildfire_bag_recorder", discovery_period: float = 0.5) -> None:
+    def __init__(
+        self,
+        output: str | Path,
+        topics: Iterable[str] | None = None,
+        *,
+        node_name: str = "wildfire_bag_recorder",
+        discovery_period: float = 0.5,
+    ) -> None:
         from wildfire_msgs_py.runtime import Node
 
         self.writer = BagWriter(output)
@@ -192,8 +213,13 @@ class BagRecorder:
         reliable = qos.reliability == ReliabilityPolicy.RELIABLE
         latched = qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
         spec = spec_for(topic)
-        self.writer.add_topic(topic, type_name, reliable=reliable, transient_local=latched,
-                              depth=spec.qos.depth if spec else 10)
+        self.writer.add_topic(
+            topic,
+            type_name,
+            reliable=reliable,
+            transient_local=latched,
+            depth=spec.qos.depth if spec else 10,
+        )
 
         def record(data: bytes, topic: str = topic) -> None:
             self.writer.write(topic, time.time_ns(), data)
@@ -224,8 +250,9 @@ def _open_reader(bag_dir: str | Path) -> Reader:
     return reader
 
 
-def read_messages(bag_dir: str | Path, topics: Iterable[str] | None = None, *,
-                  raw: bool = False) -> Iterator[BagMessage]:
+def read_messages(
+    bag_dir: str | Path, topics: Iterable[str] | None = None, *, raw: bool = False
+) -> Iterator[BagMessage]:
     """Messages of a bag in time order, deserialized with the ROS 2 Jazzy type store."""
     reader = _open_reader(bag_dir)
     store = typestore()

@@ -135,7 +135,8 @@ def grid_from_msg(msg: Any) -> np.ndarray:
     height, width = int(msg.info.height), int(msg.info.width)
     data = msg.data
     values = (
-        np.asarray(data, dtype=np.int8) if isinstance(data, list)
+        np.asarray(data, dtype=np.int8)
+        if isinstance(data, list)
         else np.frombuffer(data, dtype=np.int8)
     )
     if values.size != height * width:
@@ -177,8 +178,9 @@ def fuel_grid_from_msg(msg: Any) -> np.ndarray:
 def belief_age_to_msg(age_s: np.ndarray, stamp: Any = 0, *, message_class: Any = None) -> Any:
     """Seconds since visited (0..255, clipped) -> grid scaled to 0..100 (rounded)."""
     ages = np.clip(np.asarray(age_s, dtype=np.float64), 0.0, AGE_MAX_S)
-    return grid_to_msg(np.rint(ages * (100.0 / AGE_MAX_S)).astype(np.int8), stamp,
-                       message_class=message_class)
+    return grid_to_msg(
+        np.rint(ages * (100.0 / AGE_MAX_S)).astype(np.int8), stamp, message_class=message_class
+    )
 
 
 def belief_age_from_msg(msg: Any) -> np.ndarray:
@@ -210,8 +212,13 @@ class VisitWindow:
     __hash__ = None  # type: ignore[assignment]
 
 
-def visit_to_msg(window: VisitWindow, stamp: Any = 0, *, resolution: float = CELL_SIZE_M,
-                 message_class: Any = None) -> Any:
+def visit_to_msg(
+    window: VisitWindow,
+    stamp: Any = 0,
+    *,
+    resolution: float = CELL_SIZE_M,
+    message_class: Any = None,
+) -> Any:
     """Visit window -> grid: 100/0 truth in visited cells, -1 elsewhere; origin = SW corner."""
     visited = np.asarray(window.visited, dtype=bool)
     burning = np.asarray(window.burning, dtype=bool)
@@ -219,8 +226,9 @@ def visit_to_msg(window: VisitWindow, stamp: Any = 0, *, resolution: float = CEL
         raise ValueError(f"visited {visited.shape} and burning {burning.shape} shapes differ")
     grid = np.where(visited, np.where(burning, FIRE_BURNING, FIRE_NOT_BURNING), UNKNOWN_CELL)
     origin = (window.col0 * resolution, window.row0 * resolution)
-    return grid_to_msg(grid, stamp, resolution=resolution, origin_xy=origin,
-                       message_class=message_class)
+    return grid_to_msg(
+        grid, stamp, resolution=resolution, origin_xy=origin, message_class=message_class
+    )
 
 
 def visit_from_msg(msg: Any) -> VisitWindow:
@@ -229,8 +237,8 @@ def visit_from_msg(msg: Any) -> VisitWindow:
     resolution = float(msg.info.resolution)
     if resolution <= 0:
         raise MessageFieldError(f"visit grid: resolution {resolution}, expected > 0")
-    col0 = int(round(msg.info.origin.position.x / resolution))
-    row0 = int(round(msg.info.origin.position.y / resolution))
+    col0 = round(msg.info.origin.position.x / resolution)
+    row0 = round(msg.info.origin.position.y / resolution)
     visited = grid >= 0
     return VisitWindow(row0, col0, visited, visited & (grid >= FIRE_BURNING // 2))
 
@@ -247,7 +255,9 @@ class AircraftPose(NamedTuple):
     bank_rad: float
 
 
-def yaw_rate(bank_rad: float, airspeed: float = AIRSPEED_MPS, gravity: float = GRAVITY_MPS2) -> float:
+def yaw_rate(
+    bank_rad: float, airspeed: float = AIRSPEED_MPS, gravity: float = GRAVITY_MPS2
+) -> float:
     """Coordinated-turn yaw rate ``g tan(bank) / v`` in rad/s."""
     return gravity * math.tan(bank_rad) / airspeed
 
@@ -288,8 +298,9 @@ def odometry_to_pose(msg: Any) -> AircraftPose:
     return AircraftPose(float(position.x), float(position.y), yaw, roll)
 
 
-def state_to_msg(state: AircraftPose | np.ndarray | tuple[float, ...], *,
-                 message_class: Any = None) -> Any:
+def state_to_msg(
+    state: AircraftPose | np.ndarray | tuple[float, ...], *, message_class: Any = None
+) -> Any:
     """Exact state ``[x_m, y_m, heading_rad, bank_rad]`` -> ``std_msgs/msg/Float64MultiArray``."""
     values = np.asarray(state, dtype=np.float64).reshape(-1)
     if values.size != len(STATE_FIELDS):
@@ -306,7 +317,8 @@ def state_from_msg(msg: Any) -> np.ndarray:
     """``Float64MultiArray`` -> float64 array of the 4 state values (bit-exact)."""
     data = msg.data
     values = (
-        np.asarray(data, dtype=np.float64) if isinstance(data, list)
+        np.asarray(data, dtype=np.float64)
+        if isinstance(data, list)
         else np.frombuffer(data, dtype=np.float64)
     )
     if values.size != len(STATE_FIELDS):
@@ -334,8 +346,15 @@ bank_cmd_to_msg = float64_to_msg
 bank_cmd_from_msg = float64_from_msg
 
 
-def deadline_to_msg(stats: dict[str, float | int], aircraft: int, stamp: Any = 0, *,
-                    level: str = "OK", message: str = "", message_class: Any = None) -> Any:
+def deadline_to_msg(
+    stats: dict[str, float | int],
+    aircraft: int,
+    stamp: Any = 0,
+    *,
+    level: str = "OK",
+    message: str = "",
+    message_class: Any = None,
+) -> Any:
     """Deadline statistics -> ``diagnostic_msgs/msg/DiagnosticArray`` (one status)."""
     from wildfire_msgs_py.runtime import get_message
 
@@ -348,8 +367,10 @@ def deadline_to_msg(stats: dict[str, float | int], aircraft: int, stamp: Any = 0
     status.name = f"{base_link_frame(aircraft).split('/')[0]}/deadline"
     status.message = message
     status.hardware_id = base_link_frame(aircraft).split("/")[0]
-    status.values = [key_value(key=str(k), value=repr(float(v)) if isinstance(v, float) else str(v))
-                     for k, v in stats.items()]
+    status.values = [
+        key_value(key=str(k), value=repr(float(v)) if isinstance(v, float) else str(v))
+        for k, v in stats.items()
+    ]
     msg.status = [status]
     return msg
 

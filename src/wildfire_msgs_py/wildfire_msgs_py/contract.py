@@ -106,53 +106,96 @@ class TopicSpec:
 
 
 CLOCK = TopicSpec(
-    "/clock", "rosgraph_msgs/msg/Clock", CLOCK_QOS, False,
+    "/clock",
+    "rosgraph_msgs/msg/Clock",
+    CLOCK_QOS,
+    False,
     "simulation time; lockstep mode only, published by the fire simulator",
 )
 FIRE_MAP = TopicSpec(
-    "/wildfire/fire_map", "nav_msgs/msg/OccupancyGrid", LATCHED, False,
+    "/wildfire/fire_map",
+    "nav_msgs/msg/OccupancyGrid",
+    LATCHED,
+    False,
     "true fire: 100 burning, 0 not burning; 100x100 cells of 10 m, row 0 south",
 )
 FUEL_MAP = TopicSpec(
-    "/wildfire/fuel_map", "nav_msgs/msg/OccupancyGrid", LATCHED, False,
+    "/wildfire/fuel_map",
+    "nav_msgs/msg/OccupancyGrid",
+    LATCHED,
+    False,
     "true fuel: the integer fuel value 0..20 stored directly in each cell",
 )
 BELIEF = TopicSpec(
-    "/wildfire/belief", "nav_msgs/msg/OccupancyGrid", LATCHED, False,
+    "/wildfire/belief",
+    "nav_msgs/msg/OccupancyGrid",
+    LATCHED,
+    False,
     "shared belief: 100 believed burning, 0 believed not burning",
 )
 BELIEF_AGE = TopicSpec(
-    "/wildfire/belief_age", "nav_msgs/msg/OccupancyGrid", LATCHED, False,
+    "/wildfire/belief_age",
+    "nav_msgs/msg/OccupancyGrid",
+    LATCHED,
+    False,
     "seconds since each cell was visited, 0..255 s scaled to 0..100 (rounded)",
 )
 SCORE = TopicSpec(
-    "/wildfire/score", "std_msgs/msg/Float64", LATCHED, False,
+    "/wildfire/score",
+    "std_msgs/msg/Float64",
+    LATCHED,
+    False,
     "cumulative team reward of the episode",
 )
 ODOM = TopicSpec(
-    "odom", "nav_msgs/msg/Odometry", STREAM, True,
+    "odom",
+    "nav_msgs/msg/Odometry",
+    STREAM,
+    True,
     "10 Hz pose: frame map, child uavK/base_link, roll = bank, yaw = heading",
 )
 BANK_CMD = TopicSpec(
-    "bank_cmd", "std_msgs/msg/Float64", STREAM, True,
+    "bank_cmd",
+    "std_msgs/msg/Float64",
+    STREAM,
+    True,
     "commanded bank angle in radians after each decision",
 )
 VISIT = TopicSpec(
-    "visit", "nav_msgs/msg/OccupancyGrid", STREAM, True,
+    "visit",
+    "nav_msgs/msg/OccupancyGrid",
+    STREAM,
+    True,
     "window around the aircraft: 100/0 truth in visited cells, -1 outside the 100 m disc",
 )
 STATE = TopicSpec(
-    "state", "std_msgs/msg/Float64MultiArray", STREAM, True,
+    "state",
+    "std_msgs/msg/Float64MultiArray",
+    STREAM,
+    True,
     "exact aircraft state [x_m, y_m, heading_rad, bank_rad] as float64 (bit-exact for peers)",
 )
 DEADLINE = TopicSpec(
-    "deadline", "diagnostic_msgs/msg/DiagnosticArray", STREAM, True,
+    "deadline",
+    "diagnostic_msgs/msg/DiagnosticArray",
+    STREAM,
+    True,
     "10 Hz decision deadline statistics of the agent",
 )
 
 #: Every topic of the contract, in documentation order.
 TOPICS: tuple[TopicSpec, ...] = (
-    CLOCK, FIRE_MAP, FUEL_MAP, BELIEF, BELIEF_AGE, SCORE, ODOM, BANK_CMD, VISIT, STATE, DEADLINE,
+    CLOCK,
+    FIRE_MAP,
+    FUEL_MAP,
+    BELIEF,
+    BELIEF_AGE,
+    SCORE,
+    ODOM,
+    BANK_CMD,
+    VISIT,
+    STATE,
+    DEADLINE,
 )
 
 _AIRCRAFT_NAMESPACE = re.compile(rf"^/{AIRCRAFT_PREFIX}(0|[1-9][0-9]*)$")
@@ -175,7 +218,7 @@ def aircraft_index(namespace_or_topic: str) -> int | None:
     parts = namespace_or_topic.split("/")
     if len(parts) < 2 or not _AIRCRAFT_NAMESPACE.match("/" + parts[1]):
         return None
-    return int(parts[1][len(AIRCRAFT_PREFIX):])
+    return int(parts[1][len(AIRCRAFT_PREFIX) :])
 
 
 def base_link_frame(k: int) -> str:
@@ -200,7 +243,7 @@ def spec_for(topic: str) -> TopicSpec | None:
             return spec
     k = aircraft_index(topic)
     if k is not None:
-        suffix = topic[len(aircraft_namespace(k)) + 1:]
+        suffix = topic[len(aircraft_namespace(k)) + 1 :]
         for spec in TOPICS:
             if spec.per_aircraft and spec.name == suffix:
                 return spec

@@ -33,7 +33,7 @@ class BagError(WildfireRosError):
 
 
 class BackendError(WildfireRosError):
-    """The requested ROS backend cannot be used (e.g. ``WILDFIRE_ROS_BACKEND=rclpy`` without rclpy)."""
+    """The requested backend cannot be used (``WILDFIRE_ROS_BACKEND=rclpy`` without rclpy)."""
 
 
 class ShutdownError(WildfireRosError):

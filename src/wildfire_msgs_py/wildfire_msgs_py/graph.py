@@ -18,17 +18,22 @@ def publisher_qos_flags(node: Any, topic: str) -> tuple[bool, bool] | None:
     from wildfire_msgs_py.runtime import BACKEND, DurabilityPolicy, ReliabilityPolicy
 
     if BACKEND == "dds":
-        publishers = [e.qos for e in node.context.graph().endpoints(topic)
-                      if e.kind == "publication"]
+        publishers = [
+            e.qos for e in node.context.graph().endpoints(topic) if e.kind == "publication"
+        ]
         if not publishers:
             return None
-        return (all(q["reliability"] == "RELIABLE" for q in publishers),
-                all(q["durability"] == "TRANSIENT_LOCAL" for q in publishers))
+        return (
+            all(q["reliability"] == "RELIABLE" for q in publishers),
+            all(q["durability"] == "TRANSIENT_LOCAL" for q in publishers),
+        )
     infos = node.get_publishers_info_by_topic(topic)
     if not infos:
         return None
-    return (all(i.qos_profile.reliability == ReliabilityPolicy.RELIABLE for i in infos),
-            all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos))
+    return (
+        all(i.qos_profile.reliability == ReliabilityPolicy.RELIABLE for i in infos),
+        all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos),
+    )
 
 
 def adapted_qos(node: Any, topic: str, depth: int = 10) -> Any:

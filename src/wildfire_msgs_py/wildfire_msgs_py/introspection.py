@@ -62,12 +62,17 @@ def _to_plain(value: Any, truncate_length: int | None) -> Any:
 
 def message_to_yaml(msg: Any, truncate_length: int | None = DEFAULT_TRUNCATE_LENGTH) -> str:
     """YAML text like ``ros2 topic echo`` prints (without the ``---`` separator)."""
-    return yaml.safe_dump(message_to_dict(msg, truncate_length), sort_keys=False,
-                          default_flow_style=False, width=1 << 30, allow_unicode=True)
+    return yaml.safe_dump(
+        message_to_dict(msg, truncate_length),
+        sort_keys=False,
+        default_flow_style=False,
+        width=1 << 30,
+        allow_unicode=True,
+    )
 
 
 def _element_type(type_string: str) -> str:
-    """``sequence<geometry_msgs/Point, 3>`` / ``double[36]`` -> ``geometry_msgs/Point`` / ``double``."""
+    """Element type: ``sequence<geometry_msgs/Point, 3>`` -> ``geometry_msgs/Point``."""
     inner = re.sub(r"^sequence<(.*?)(,\s*\d+)?>$", r"\1", type_string)
     inner = re.sub(r"\[\d*\]$", "", inner)
     return re.sub(r"<=\d+$", "", inner)
@@ -102,11 +107,14 @@ def set_message_fields(msg: Any, values: Any, path: str = "") -> Any:
                 raise MessageFieldError(f"field {where!r}: expected a list, got {value!r}")
             if "/" in element:
                 element_class = get_message(element)
-                value = [set_message_fields(element_class(), item, f"{where}[{i}].")
-                         for i, item in enumerate(value)]
+                value = [
+                    set_message_fields(element_class(), item, f"{where}[{i}].")
+                    for i, item in enumerate(value)
+                ]
             else:
-                value = [_convert_scalar(item, element, f"{where}[{i}]")
-                         for i, item in enumerate(value)]
+                value = [
+                    _convert_scalar(item, element, f"{where}[{i}]") for i, item in enumerate(value)
+                ]
             setattr(msg, name, value)
         elif is_message(current):
             set_message_fields(current, value, f"{where}.")

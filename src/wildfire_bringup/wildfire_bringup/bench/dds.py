@@ -49,23 +49,39 @@ def _raw_struct(name: str, typename: str, fields: dict[str, Any]) -> Any:
     return make_idl_struct(name, typename, fields)
 
 
-RawTime = _raw_struct("Time", "builtin_interfaces::msg::dds_::Time_",
-                      {"sec": int32, "nanosec": uint32})
-RawHeader = _raw_struct("Header", "std_msgs::msg::dds_::Header_",
-                        {"stamp": RawTime, "frame_id": str})
-RawPoint = _raw_struct("Point", "geometry_msgs::msg::dds_::Point_",
-                       {"x": float64, "y": float64, "z": float64})
-RawQuaternion = _raw_struct("Quaternion", "geometry_msgs::msg::dds_::Quaternion_",
-                            {"x": float64, "y": float64, "z": float64, "w": float64})
-RawPose = _raw_struct("Pose", "geometry_msgs::msg::dds_::Pose_",
-                      {"position": RawPoint, "orientation": RawQuaternion})
-RawMapMetaData = _raw_struct("MapMetaData", "nav_msgs::msg::dds_::MapMetaData_", {
-    "map_load_time": RawTime, "resolution": float32, "width": uint32, "height": uint32,
-    "origin": RawPose,
-})
-RawOccupancyGrid = _raw_struct("OccupancyGrid", "nav_msgs::msg::dds_::OccupancyGrid_",
-                               {"header": RawHeader, "info": RawMapMetaData,
-                                "data": sequence[int8]})
+RawTime = _raw_struct(
+    "Time", "builtin_interfaces::msg::dds_::Time_", {"sec": int32, "nanosec": uint32}
+)
+RawHeader = _raw_struct(
+    "Header", "std_msgs::msg::dds_::Header_", {"stamp": RawTime, "frame_id": str}
+)
+RawPoint = _raw_struct(
+    "Point", "geometry_msgs::msg::dds_::Point_", {"x": float64, "y": float64, "z": float64}
+)
+RawQuaternion = _raw_struct(
+    "Quaternion",
+    "geometry_msgs::msg::dds_::Quaternion_",
+    {"x": float64, "y": float64, "z": float64, "w": float64},
+)
+RawPose = _raw_struct(
+    "Pose", "geometry_msgs::msg::dds_::Pose_", {"position": RawPoint, "orientation": RawQuaternion}
+)
+RawMapMetaData = _raw_struct(
+    "MapMetaData",
+    "nav_msgs::msg::dds_::MapMetaData_",
+    {
+        "map_load_time": RawTime,
+        "resolution": float32,
+        "width": uint32,
+        "height": uint32,
+        "origin": RawPose,
+    },
+)
+RawOccupancyGrid = _raw_struct(
+    "OccupancyGrid",
+    "nav_msgs::msg::dds_::OccupancyGrid_",
+    {"header": RawHeader, "info": RawMapMetaData, "data": sequence[int8]},
+)
 
 
 def _raw_grid_message(grid: np.ndarray, stamp_ns: int) -> Any:
@@ -74,9 +90,14 @@ def _raw_grid_message(grid: np.ndarray, stamp_ns: int) -> Any:
     return RawOccupancyGrid(
         header=RawHeader(stamp=RawTime(sec=sec, nanosec=nanosec), frame_id="map"),
         info=RawMapMetaData(
-            map_load_time=RawTime(sec=0, nanosec=0), resolution=10.0, width=100, height=100,
-            origin=RawPose(position=RawPoint(x=0.0, y=0.0, z=0.0),
-                           orientation=RawQuaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
+            map_load_time=RawTime(sec=0, nanosec=0),
+            resolution=10.0,
+            width=100,
+            height=100,
+            origin=RawPose(
+                position=RawPoint(x=0.0, y=0.0, z=0.0),
+                orientation=RawQuaternion(x=0.0, y=0.0, z=0.0, w=1.0),
+            ),
         ),
         data=grid.ravel().tolist(),
     )
@@ -90,8 +111,11 @@ def _random_grid(seed: int = 0) -> np.ndarray:
 def _raw_roundtrip_s(count: int, domain_id: int) -> float:
     """Mean seconds per grid: raw Cyclone write + take + deserialize, one participant."""
     participant = DomainParticipant(domain_id)
-    qos = Qos(Policy.Reliability.Reliable(max_blocking_time=duration(infinite=True)),
-              Policy.History.KeepLast(1), Policy.DataRepresentation(use_cdrv0_representation=True))
+    qos = Qos(
+        Policy.Reliability.Reliable(max_blocking_time=duration(infinite=True)),
+        Policy.History.KeepLast(1),
+        Policy.DataRepresentation(use_cdrv0_representation=True),
+    )
     topic = Topic(participant, "rt/bench/raw_grid", RawOccupancyGrid)
     writer = DataWriter(participant, topic, qos=qos)
     reader = DataReader(participant, topic, qos=qos)
@@ -124,8 +148,12 @@ def _layer_roundtrip_s(count: int, domain_id: int) -> float:
         grid_type = get_message("nav_msgs/msg/OccupancyGrid")
         publisher = node.create_publisher(grid_type, "/bench/layer_grid", QoSProfile(depth=1))
         received: list[Any] = []
-        node.create_subscription(grid_type, "/bench/layer_grid",
-                                 lambda m: received.append(fire_grid_from_msg(m)), QoSProfile(depth=1))
+        node.create_subscription(
+            grid_type,
+            "/bench/layer_grid",
+            lambda m: received.append(fire_grid_from_msg(m)),
+            QoSProfile(depth=1),
+        )
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(node)
         grid = _random_grid()
@@ -159,8 +187,9 @@ def _subscriber_main(expected: int, timeout_s: float, domain_id: int) -> None:
         latencies.append((now - time_from_msg(msg.header.stamp)) / 1e6)
 
     node = Node(f"bench_sub_{os.getpid()}", context=context)
-    node.create_subscription(get_message("nav_msgs/msg/OccupancyGrid"), GRID_TOPIC,
-                             grid_callback, QoSProfile(depth=10))
+    node.create_subscription(
+        get_message("nav_msgs/msg/OccupancyGrid"), GRID_TOPIC, grid_callback, QoSProfile(depth=10)
+    )
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     print("ready", flush=True)
@@ -181,10 +210,19 @@ def _grid_latency(subscribers: int, messages: int, domain_id: int) -> list[float
 
     timeout_s = 30.0 + messages * 0.1
     env = dict(os.environ)
-    command = [sys.executable, "-m", "wildfire_bringup.bench.dds", "--subscriber",
-               str(messages), str(timeout_s), str(domain_id)]
-    children = [subprocess.Popen(command, stdout=subprocess.PIPE, text=True, env=env)
-                for _ in range(subscribers)]
+    command = [
+        sys.executable,
+        "-m",
+        "wildfire_bringup.bench.dds",
+        "--subscriber",
+        str(messages),
+        str(timeout_s),
+        str(domain_id),
+    ]
+    children = [
+        subprocess.Popen(command, stdout=subprocess.PIPE, text=True, env=env)
+        for _ in range(subscribers)
+    ]
     context = Context()
     context.init([], domain_id=domain_id)
     try:
@@ -193,8 +231,9 @@ def _grid_latency(subscribers: int, messages: int, domain_id: int) -> list[float
             if child.stdout.readline().strip() != "ready":
                 raise RuntimeError("a benchmark subscriber process failed to start")
         node = Node("bench_pub", context=context)
-        publisher = node.create_publisher(get_message("nav_msgs/msg/OccupancyGrid"), GRID_TOPIC,
-                                          QoSProfile(depth=10))
+        publisher = node.create_publisher(
+            get_message("nav_msgs/msg/OccupancyGrid"), GRID_TOPIC, QoSProfile(depth=10)
+        )
         end = time.monotonic() + 20.0
         while publisher.get_subscription_count() < subscribers and time.monotonic() < end:
             time.sleep(0.05)
@@ -236,7 +275,9 @@ def bench_dds(quick: bool = False) -> dict[str, float | int]:
         "grid_messages_sent": messages,
         "grid_messages_received": int(latencies.size),
         "grid_latency_median_ms": float(np.median(latencies)) if latencies.size else float("nan"),
-        "grid_latency_p95_ms": float(np.percentile(latencies, 95)) if latencies.size else float("nan"),
+        "grid_latency_p95_ms": float(np.percentile(latencies, 95))
+        if latencies.size
+        else float("nan"),
         "layer_us_per_grid": layer * 1e6,
         "raw_cyclonedds_us_per_grid": raw * 1e6,
         "layer_overhead_ratio": layer / raw,

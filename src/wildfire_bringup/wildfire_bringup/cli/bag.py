@@ -17,17 +17,20 @@ if TYPE_CHECKING:
 def add_parser(subparsers: Any) -> None:
     """Register ``wildfire bag``."""
     parser = subparsers.add_parser(
-        "bag", help="record and inspect rosbag2 (MCAP) bags",
-        description="Record topics to a rosbag2 directory (metadata.yaml + .mcap) or summarize one.",
+        "bag",
+        help="record and inspect rosbag2 (MCAP) bags",
+        description="Record topics to a rosbag2 MCAP directory, or summarize one.",
     )
     commands = parser.add_subparsers(dest="bag_command", metavar="VERB", required=True)
     record = commands.add_parser("record", help="record topics until Ctrl-C")
     record.add_argument("-o", "--output", required=True, help="new bag directory to create")
-    record.add_argument("-a", "--all", action="store_true",
-                        help="record every topic, also those appearing later")
+    record.add_argument(
+        "-a", "--all", action="store_true", help="record every topic, also those appearing later"
+    )
     record.add_argument("topics", nargs="*", help="topics to record")
-    record.add_argument("--duration", type=positive_float, default=None,
-                        help="stop after this many seconds")
+    record.add_argument(
+        "--duration", type=positive_float, default=None, help="stop after this many seconds"
+    )
     record.set_defaults(handler=run_record)
 
     info = commands.add_parser("info", help="summarize a bag")
@@ -53,8 +56,11 @@ def run_record(args: argparse.Namespace) -> int:
     recorder = None
     try:
         recorder = BagRecorder(args.output, topics)
-        print(f"Recording to {args.output} ({'all topics' if topics is None else ', '.join(topics)})",
-              file=sys.stderr, flush=True)
+        print(
+            f"Recording to {args.output} ({'all topics' if topics is None else ', '.join(topics)})",
+            file=sys.stderr,
+            flush=True,
+        )
         end = None if args.duration is None else time.monotonic() + args.duration
         try:
             while rclpy.ok() and (end is None or time.monotonic() < end):
@@ -67,8 +73,11 @@ def run_record(args: argparse.Namespace) -> int:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
         if recorder is not None:
             recorder.close()
-            print(f"Recorded {recorder.message_count} messages to {args.output}",
-                  file=sys.stderr, flush=True)
+            print(
+                f"Recorded {recorder.message_count} messages to {args.output}",
+                file=sys.stderr,
+                flush=True,
+            )
         rclpy.try_shutdown()
     return 0
 
@@ -84,13 +93,21 @@ def run_info(args: argparse.Namespace) -> int:
 
     info = bag_info(args.bag)
     if args.json:
-        print_json({
-            "path": str(info.path), "storage": info.storage, "size_bytes": info.size_bytes,
-            "duration_s": info.duration_s, "start_ns": info.start_ns, "end_ns": info.end_ns,
-            "message_count": info.message_count,
-            "topics": [{"name": t.name, "type": t.type, "message_count": t.message_count}
-                       for t in info.topics],
-        })
+        print_json(
+            {
+                "path": str(info.path),
+                "storage": info.storage,
+                "size_bytes": info.size_bytes,
+                "duration_s": info.duration_s,
+                "start_ns": info.start_ns,
+                "end_ns": info.end_ns,
+                "message_count": info.message_count,
+                "topics": [
+                    {"name": t.name, "type": t.type, "message_count": t.message_count}
+                    for t in info.topics
+                ],
+            }
+        )
         return 0
     files = ", ".join(sorted(p.name for p in info.path.glob("*.mcap")))
     print(f"Files:             {files}")
@@ -102,8 +119,10 @@ def run_info(args: argparse.Namespace) -> int:
     print(f"Messages:          {info.message_count}")
     for i, topic in enumerate(info.topics):
         label = "Topic information: " if i == 0 else " " * 19
-        print(f"{label}Topic: {topic.name} | Type: {topic.type} | Count: {topic.message_count} "
-              "| Serialization Format: cdr")
+        print(
+            f"{label}Topic: {topic.name} | Type: {topic.type} | Count: {topic.message_count} "
+            "| Serialization Format: cdr"
+        )
     return 0
 
 

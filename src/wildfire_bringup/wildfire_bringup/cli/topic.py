@@ -6,6 +6,7 @@ sees the same graph as ``ros2 topic`` on a machine with rmw_cyclonedds_cpp.
 
 from __future__ import annotations
 
+import itertools
 import math
 import sys
 import time
@@ -32,53 +33,83 @@ DISCOVERY_S = 1.0
 def add_parser(subparsers: Any) -> None:
     """Register ``wildfire topic`` and its sub-commands."""
     parser = subparsers.add_parser(
-        "topic", help="inspect and publish ROS 2 topics (like ros2 topic)",
+        "topic",
+        help="inspect and publish ROS 2 topics (like ros2 topic)",
         description="Inspect and publish ROS 2 topics on the wildfire system's DDS domain.",
     )
     commands = parser.add_subparsers(dest="topic_command", metavar="VERB", required=True)
 
     listing = commands.add_parser("list", help="list topics in the graph")
     listing.add_argument("-t", "--show-types", action="store_true", help="also print types")
-    listing.add_argument("--spin-time", type=positive_float, default=DISCOVERY_S,
-                         help="seconds to wait for discovery (default %(default)s)")
+    listing.add_argument(
+        "--spin-time",
+        type=positive_float,
+        default=DISCOVERY_S,
+        help="seconds to wait for discovery (default %(default)s)",
+    )
     listing.set_defaults(handler=run_list)
 
     echo = commands.add_parser("echo", help="print messages of a topic")
     echo.add_argument("topic", help="topic name, e.g. /wildfire/fire_map")
     echo.add_argument("type", nargs="?", help="message type (default: discovered)")
     echo.add_argument("--once", action="store_true", help="print one message and exit")
-    echo.add_argument("--timeout", type=positive_float, default=None,
-                      help="give up after this many seconds without a message")
-    echo.add_argument("--full", action="store_true",
-                      help="print whole arrays (default: cut after 128 elements)")
+    echo.add_argument(
+        "--timeout",
+        type=positive_float,
+        default=None,
+        help="give up after this many seconds without a message",
+    )
+    echo.add_argument(
+        "--full", action="store_true", help="print whole arrays (default: cut after 128 elements)"
+    )
     echo.set_defaults(handler=run_echo)
 
     hz = commands.add_parser("hz", help="print the publishing rate of a topic")
     hz.add_argument("topic")
-    hz.add_argument("--window", "-w", type=positive_int, default=100,
-                    help="messages the statistics cover (default %(default)s)")
-    hz.add_argument("--timeout", type=positive_float, default=None,
-                    help="stop after this many seconds")
+    hz.add_argument(
+        "--window",
+        "-w",
+        type=positive_int,
+        default=100,
+        help="messages the statistics cover (default %(default)s)",
+    )
+    hz.add_argument(
+        "--timeout", type=positive_float, default=None, help="stop after this many seconds"
+    )
     hz.set_defaults(handler=run_hz)
 
     info = commands.add_parser("info", help="type and endpoint counts of a topic")
     info.add_argument("topic")
     info.add_argument("-v", "--verbose", action="store_true", help="list endpoints with QoS")
-    info.add_argument("--spin-time", type=positive_float, default=DISCOVERY_S,
-                      help="seconds to wait for discovery (default %(default)s)")
+    info.add_argument(
+        "--spin-time",
+        type=positive_float,
+        default=DISCOVERY_S,
+        help="seconds to wait for discovery (default %(default)s)",
+    )
     info.set_defaults(handler=run_info)
 
     pub = commands.add_parser("pub", help="publish a message given as YAML")
     pub.add_argument("topic")
     pub.add_argument("type", help="message type, e.g. std_msgs/msg/String")
     pub.add_argument("values", nargs="?", default="{}", help="field values as YAML")
-    pub.add_argument("-r", "--rate", type=positive_float, default=1.0,
-                     help="publications per second (default %(default)s)")
-    pub.add_argument("-t", "--times", type=positive_int, default=None,
-                     help="publish this many times and exit")
+    pub.add_argument(
+        "-r",
+        "--rate",
+        type=positive_float,
+        default=1.0,
+        help="publications per second (default %(default)s)",
+    )
+    pub.add_argument(
+        "-t", "--times", type=positive_int, default=None, help="publish this many times and exit"
+    )
     pub.add_argument("-1", "--once", action="store_true", help="publish once and exit")
-    pub.add_argument("--wait-matching", type=positive_float, default=2.0,
-                     help="seconds to wait for a subscriber before the first message")
+    pub.add_argument(
+        "--wait-matching",
+        type=positive_float,
+        default=2.0,
+        help="seconds to wait for a subscriber before the first message",
+    )
     pub.set_defaults(handler=run_pub)
 
 
@@ -109,8 +140,10 @@ def run_echo(args: argparse.Namespace) -> int:
         if msg_type is None:
             type_name = wait_for_topic_type(node, topic, args.timeout)
             if type_name is None:
-                raise UserError(f"topic {topic}: not published within {args.timeout} s "
-                                "(give its TYPE to wait for it anyway)")
+                raise UserError(
+                    f"topic {topic}: not published within {args.timeout} s "
+                    "(give its TYPE to wait for it anyway)"
+                )
             msg_type = get_message(type_name)
         truncate = None if args.full else 128
         received = 0
@@ -127,8 +160,10 @@ def run_echo(args: argparse.Namespace) -> int:
             if args.timeout is not None and time.monotonic() - start > args.timeout:
                 if received:
                     return 0
-                print(f"wildfire topic: no message on {topic} within {args.timeout} s",
-                      file=sys.stderr)
+                print(
+                    f"wildfire topic: no message on {topic} within {args.timeout} s",
+                    file=sys.stderr,
+                )
                 return 1
             rclpy.spin_once(node, timeout_sec=0.1)
     return 0
@@ -144,9 +179,13 @@ def run_hz(args: argparse.Namespace) -> int:
         if type_name is None:
             raise UserError(f"topic {topic}: not published within {args.timeout} s")
         arrivals: deque[float] = deque(maxlen=args.window + 1)
-        node.create_subscription(get_message(type_name), topic,
-                                 lambda _data: arrivals.append(time.monotonic()),
-                                 subscription_qos(node, topic), raw=True)
+        node.create_subscription(
+            get_message(type_name),
+            topic,
+            lambda _data: arrivals.append(time.monotonic()),
+            subscription_qos(node, topic),
+            raw=True,
+        )
         start = last_print = time.monotonic()
         printed = False
         while rclpy.ok():
@@ -166,11 +205,13 @@ def format_rate(arrivals: list[float]) -> str:
     """``ros2 topic hz`` style statistics of arrival times (empty with < 2 arrivals)."""
     if len(arrivals) < 2:
         return ""
-    gaps = [b - a for a, b in zip(arrivals, arrivals[1:], strict=False)]
+    gaps = [b - a for a, b in itertools.pairwise(arrivals)]
     mean = sum(gaps) / len(gaps)
     std = math.sqrt(sum((g - mean) ** 2 for g in gaps) / len(gaps))
-    return (f"average rate: {1.0 / mean:.3f}\n\tmin: {min(gaps):.3f}s max: {max(gaps):.3f}s "
-            f"std dev: {std:.5f}s window: {len(gaps)}")
+    return (
+        f"average rate: {1.0 / mean:.3f}\n\tmin: {min(gaps):.3f}s max: {max(gaps):.3f}s "
+        f"std dev: {std:.5f}s window: {len(gaps)}"
+    )
 
 
 def run_info(args: argparse.Namespace) -> int:
@@ -182,16 +223,20 @@ def run_info(args: argparse.Namespace) -> int:
         time.sleep(args.spin_time)
         types = dict(node.get_topic_names_and_types()).get(topic)
         if not types:
-            raise UserError(f"unknown topic {topic!r}: not in the graph (see 'wildfire topic list')")
+            raise UserError(
+                f"unknown topic {topic!r}: not in the graph (see 'wildfire topic list')"
+            )
         print(f"Type: {', '.join(types)}")
         print(f"Publisher count: {node.count_publishers(topic)}")
         print(f"Subscription count: {node.count_subscribers(topic)}")
         if args.verbose and BACKEND == "dds":
             for endpoint in node.context.graph().endpoints(topic):
                 qos = endpoint.qos
-                print(f"\n{endpoint.kind}: participant {endpoint.participant}\n"
-                      f"  Reliability: {qos['reliability']}\n  Durability: {qos['durability']}\n"
-                      f"  History (Depth): {qos['history']}")
+                print(
+                    f"\n{endpoint.kind}: participant {endpoint.participant}\n"
+                    f"  Reliability: {qos['reliability']}\n  Durability: {qos['durability']}\n"
+                    f"  History (Depth): {qos['history']}"
+                )
     return 0
 
 
@@ -205,7 +250,7 @@ def parse_values(text: str) -> Any:
     if values is None:
         return {}
     if not isinstance(values, dict):
-        raise UserError(f"values {text!r}: expected a YAML mapping such as \"{{data: hello}}\"")
+        raise UserError(f'values {text!r}: expected a YAML mapping such as "{{data: hello}}"')
     return values
 
 

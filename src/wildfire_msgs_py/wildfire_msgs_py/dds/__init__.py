@@ -23,8 +23,13 @@ if TYPE_CHECKING:
 _global_executor: SingleThreadedExecutor | None = None
 
 
-def init(*, args: Sequence[str] | None = None, context: Context | None = None,
-         domain_id: int | None = None, **_ignored: Any) -> None:
+def init(
+    *,
+    args: Sequence[str] | None = None,
+    context: Context | None = None,
+    domain_id: int | None = None,
+    **_ignored: Any,
+) -> None:
     """Initialize ROS: parse ``--ros-args`` in ``args`` and create the DDS participant."""
     (context or default_context).init(args, domain_id=domain_id)
 
@@ -68,8 +73,9 @@ def spin(node: Node, executor: SingleThreadedExecutor | None = None) -> None:
         executor.remove_node(node)
 
 
-def spin_once(node: Node, *, executor: SingleThreadedExecutor | None = None,
-              timeout_sec: float | None = None) -> None:
+def spin_once(
+    node: Node, *, executor: SingleThreadedExecutor | None = None, timeout_sec: float | None = None
+) -> None:
     """Run at most one callback of the node."""
     executor = executor or get_global_executor()
     try:
@@ -79,8 +85,12 @@ def spin_once(node: Node, *, executor: SingleThreadedExecutor | None = None,
         executor.remove_node(node)
 
 
-def spin_until_future_complete(node: Node, future: Any, executor: SingleThreadedExecutor | None = None,
-                               timeout_sec: float | None = None) -> None:
+def spin_until_future_complete(
+    node: Node,
+    future: Any,
+    executor: SingleThreadedExecutor | None = None,
+    timeout_sec: float | None = None,
+) -> None:
     """Spin the node until ``future.done()`` or the timeout."""
     executor = executor or get_global_executor()
     try:

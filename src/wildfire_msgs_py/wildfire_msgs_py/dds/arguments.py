@@ -94,7 +94,9 @@ def parse_value(text: str, where: str) -> Any:
     try:
         value = yaml.safe_load(text) if text.strip() else ""
     except yaml.YAMLError as error:
-        raise ParameterError(f"{where}: value {text!r} is not valid YAML ({_first_line(error)})") from None
+        raise ParameterError(
+            f"{where}: value {text!r} is not valid YAML ({_first_line(error)})"
+        ) from None
     if value is None:
         raise ParameterError(f"{where}: empty value; expected a number, bool, string or list")
     _check_value_type(value, where)
@@ -143,7 +145,9 @@ def load_params_file(path: str | Path) -> list[ParameterOverride]:
     try:
         document = yaml.safe_load(text)
     except yaml.YAMLError as error:
-        raise ParameterError(f"--params-file {path}: malformed YAML ({_first_line(error)})") from None
+        raise ParameterError(
+            f"--params-file {path}: malformed YAML ({_first_line(error)})"
+        ) from None
     if not isinstance(document, dict):
         raise ParameterError(
             f"--params-file {path}: expected a mapping 'node_name: {{ros__parameters: {{...}}}}'"
@@ -213,8 +217,11 @@ def parse_ros_arguments(args: Sequence[str] | None) -> RosArguments:
         if flag in ("-p", "--param"):
             node, name, text = _split_assignment(value_of(flag), flag)
             where = f"--ros-args {flag} {name}"
-            cli.append(ParameterOverride(None if node is None else f"/**/{node}", name,
-                                         parse_value(text, where), where))
+            cli.append(
+                ParameterOverride(
+                    None if node is None else f"/**/{node}", name, parse_value(text, where), where
+                )
+            )
             i += 2
         elif flag == "--params-file":
             files.extend(load_params_file(value_of(flag)))

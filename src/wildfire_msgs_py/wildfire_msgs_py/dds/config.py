@@ -16,7 +16,7 @@ from wildfire_msgs_py.errors import BackendError
 #: Inline form of ``config/cyclonedds_loopback.xml`` (Cyclone accepts XML in CYCLONEDDS_URI).
 LOOPBACK_CONFIG_XML = (
     '<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="any">'
-    "<General><Interfaces><NetworkInterface address=\"127.0.0.1\"/></Interfaces>"
+    '<General><Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>'
     "<AllowMulticast>false</AllowMulticast></General>"
     "<Discovery><ParticipantIndex>auto</ParticipantIndex>"
     "<MaxAutoParticipantIndex>40</MaxAutoParticipantIndex>"

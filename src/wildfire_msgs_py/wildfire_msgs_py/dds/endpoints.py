@@ -38,7 +38,9 @@ class Publisher:
         self.topic_name = topic_name
         self.qos_profile = qos
         topic = context.topic(topic_name, msg_type)
-        self._writer: DataWriter | None = DataWriter(context.participant, topic, qos=to_cyclone(qos))
+        self._writer: DataWriter | None = DataWriter(
+            context.participant, topic, qos=to_cyclone(qos)
+        )
 
     def publish(self, msg: Any) -> None:
         """Send one message (serialized as XCDR1 CDR)."""
@@ -81,7 +83,9 @@ class Subscription:
         self.qos_profile = qos
         self.raw = raw
         topic = context.topic(topic_name, msg_type)
-        self._reader: DataReader | None = DataReader(context.participant, topic, qos=to_cyclone(qos))
+        self._reader: DataReader | None = DataReader(
+            context.participant, topic, qos=to_cyclone(qos)
+        )
         self.condition: ReadCondition | None = ReadCondition(self._reader, _ANY_STATE)
 
     def take_serialized(self) -> tuple[bytes, int] | None:

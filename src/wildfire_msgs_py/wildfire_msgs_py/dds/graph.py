@@ -67,7 +67,10 @@ class GraphMonitor:
                         if not topic_name.startswith("rt/") or type_name is None:
                             continue
                         self._endpoints[key] = Endpoint(
-                            kind, topic_name[2:], type_name, str(sample.participant_key),
+                            kind,
+                            topic_name[2:],
+                            type_name,
+                            str(sample.participant_key),
                             describe_cyclone(sample.qos),
                         )
 

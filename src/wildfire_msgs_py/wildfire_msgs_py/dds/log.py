@@ -32,8 +32,14 @@ class Logger:
         """The current threshold (10 debug ... 50 fatal)."""
         return _threshold
 
-    def _log(self, level: str, message: Any, once: bool = False,
-             throttle_duration_sec: float | None = None, **_: Any) -> bool:
+    def _log(
+        self,
+        level: str,
+        message: Any,
+        once: bool = False,
+        throttle_duration_sec: float | None = None,
+        **_: Any,
+    ) -> bool:
         if _LEVELS[level] < _threshold:
             return False
         text = str(message)
@@ -48,8 +54,11 @@ class Logger:
                 return False
             self._last_ns[text] = now
         sec, nsec = divmod(now, 1_000_000_000)
-        print(f"[{level.upper()}] [{sec}.{nsec:09d}] [{self.name}]: {text}", file=sys.stderr,
-              flush=True)
+        print(
+            f"[{level.upper()}] [{sec}.{nsec:09d}] [{self.name}]: {text}",
+            file=sys.stderr,
+            flush=True,
+        )
         return True
 
     def debug(self, message: Any, **kwargs: Any) -> bool:

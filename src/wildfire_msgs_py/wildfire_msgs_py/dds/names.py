@@ -31,7 +31,8 @@ def validate_node_name(name: str) -> str:
     """A node name: letters, digits, underscores, not starting with a digit."""
     if not _NODE_NAME.match(name):
         raise TopicNameError(
-            f"node name {name!r}: expected letters, digits and underscores, not starting with a digit"
+            f"node name {name!r}: expected letters, digits and underscores, "
+            "not starting with a digit"
         )
     return name
 

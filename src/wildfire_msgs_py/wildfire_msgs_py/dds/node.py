@@ -50,11 +50,14 @@ class Node:
         self._name = validate_node_name(remaps.pop("__node", node_name))
         self._namespace = validate_namespace(remaps.pop("__ns", namespace or "/"))
         self._topic_remaps = {
-            expand_topic_name(src, self._name, self._namespace):
-            expand_topic_name(dst, self._name, self._namespace)
+            expand_topic_name(src, self._name, self._namespace): expand_topic_name(
+                dst, self._name, self._namespace
+            )
             for src, dst in remaps.items()
         }
-        self._overrides = arguments.parameters_for(self.get_fully_qualified_name()) if arguments else {}
+        self._overrides = (
+            arguments.parameters_for(self.get_fully_qualified_name()) if arguments else {}
+        )
         self._explicit_overrides = {p.name: p.value for p in parameter_overrides or ()}
         self._parameters: dict[str, Parameter] = {}
         self._descriptors: dict[str, Any] = {}
@@ -106,8 +109,9 @@ class Node:
         self, msg_type: Any, topic: str, qos_profile: QoSProfile | int, **_ignored: Any
     ) -> Publisher:
         """A publisher on ``topic`` (relative names resolve against the namespace)."""
-        publisher = Publisher(self.context, msg_type, self.resolve_topic_name(topic),
-                              as_profile(qos_profile))
+        publisher = Publisher(
+            self.context, msg_type, self.resolve_topic_name(topic), as_profile(qos_profile)
+        )
         self.publishers.append(publisher)
         return publisher
 
@@ -122,13 +126,24 @@ class Node:
         **_ignored: Any,
     ) -> Subscription:
         """A subscription; the executor calls ``callback(msg)`` (bytes when ``raw``)."""
-        subscription = Subscription(self.context, msg_type, self.resolve_topic_name(topic),
-                                    callback, as_profile(qos_profile), raw=raw)
+        subscription = Subscription(
+            self.context,
+            msg_type,
+            self.resolve_topic_name(topic),
+            callback,
+            as_profile(qos_profile),
+            raw=raw,
+        )
         self.subscriptions.append(subscription)
         return subscription
 
-    def create_timer(self, timer_period_sec: float, callback: Callable[[], Any],
-                     clock: Any = None, **_ignored: Any) -> Timer:
+    def create_timer(
+        self,
+        timer_period_sec: float,
+        callback: Callable[[], Any],
+        clock: Any = None,
+        **_ignored: Any,
+    ) -> Timer:
         """A timer on the node clock (follows ``/clock`` in sim time)."""
         timer = Timer(callback, round(timer_period_sec * 1e9), clock or self._clock)
         self.timers.append(timer)
@@ -179,9 +194,10 @@ class Node:
 
     # --- parameters -----------------------------------------------------------------------------
 
-    def declare_parameter(self, name: str, value: Any = None, descriptor: Any = None,
-                          ignore_override: bool = False) -> Parameter:
-        """Declare a parameter; an override (command line, file, constructor) replaces the default."""
+    def declare_parameter(
+        self, name: str, value: Any = None, descriptor: Any = None, ignore_override: bool = False
+    ) -> Parameter:
+        """Declare a parameter; an override (command line, file, constructor) wins."""
         if name in self._parameters:
             raise ParameterError(f"parameter {name!r} of node {self._name} is already declared")
         expected = ParameterType.from_parameter_value(value)
@@ -198,8 +214,9 @@ class Node:
         self._descriptors[name] = descriptor
         return parameter
 
-    def declare_parameters(self, namespace: str, parameters: Sequence[tuple[Any, ...]],
-                           ignore_override: bool = False) -> list[Parameter]:
+    def declare_parameters(
+        self, namespace: str, parameters: Sequence[tuple[Any, ...]], ignore_override: bool = False
+    ) -> list[Parameter]:
         """Declare several ``(name, default[, descriptor])`` under ``namespace.``."""
         prefix = f"{namespace}." if namespace else ""
         return [
@@ -236,8 +253,9 @@ class Node:
             try:
                 current = self.get_parameter(parameter.name)
                 value = coerce(parameter.name, parameter.value, current.type_, "set_parameters")
-                check_range(parameter.name, value, self._descriptors.get(parameter.name),
-                            "set_parameters")
+                check_range(
+                    parameter.name, value, self._descriptors.get(parameter.name), "set_parameters"
+                )
             except ParameterError as error:
                 results.append(SetParametersResult(False, str(error)))
                 continue

@@ -95,8 +95,10 @@ def check_range(name: str, value: Any, descriptor: Any, source: str) -> None:
     """Enforce a descriptor's ``floating_point_range``/``integer_range`` like rclpy."""
     if descriptor is None or value is None:
         return
-    for ranges in (getattr(descriptor, "floating_point_range", None),
-                   getattr(descriptor, "integer_range", None)):
+    for ranges in (
+        getattr(descriptor, "floating_point_range", None),
+        getattr(descriptor, "integer_range", None),
+    ):
         if not ranges or isinstance(value, bool) or not isinstance(value, int | float):
             continue
         bounds = ranges[0]

@@ -78,7 +78,7 @@ def typestore() -> Any:
 
 
 def normalize_type_name(type_name: str) -> str:
-    """``nav_msgs/OccupancyGrid`` or ``nav_msgs/msg/OccupancyGrid`` -> ``nav_msgs/msg/OccupancyGrid``."""
+    """``nav_msgs/OccupancyGrid`` (or already ``nav_msgs/msg/OccupancyGrid``) -> full name."""
     match = _TYPE_NAME.match(type_name.strip())
     if not match:
         raise UnknownMessageTypeError(
@@ -175,7 +175,9 @@ class _NumericArrayMachine(PlainCdrV2ArrayOfPrimitiveMachine):
     def serialize(self, buffer: Any, value: Any, *_: Any, **__: Any) -> None:
         data = _as_bytes(value, self.array_code, self.dtype)
         if len(data) != self.size:
-            raise ValueError(f"expected {self.length} values, got {len(data) // (self.size // self.length)}")
+            raise ValueError(
+                f"expected {self.length} values, got {len(data) // (self.size // self.length)}"
+            )
         buffer.align(self.alignment)
         buffer.write_bytes(data)
 
@@ -223,10 +225,16 @@ def _install_bulk_machines(cls: Any, fields: list[tuple[str, Any]]) -> None:
         if sub_type != Nodetype.BASE or _BASE_TYPES[sub_detail[0]][1] is None:
             continue
         idl_type, code, dtype, _ = _BASE_TYPES[sub_detail[0]]
-        if node_type == Nodetype.SEQUENCE and isinstance(current, SequenceMachine | PlainCdrV2SequenceOfPrimitiveMachine):
+        if node_type == Nodetype.SEQUENCE and isinstance(
+            current, SequenceMachine | PlainCdrV2SequenceOfPrimitiveMachine
+        ):
             machine.members_machines[field_name] = _NumericSequenceMachine(idl_type, code, dtype)
-        elif node_type == Nodetype.ARRAY and isinstance(current, ArrayMachine | PlainCdrV2ArrayOfPrimitiveMachine):
-            machine.members_machines[field_name] = _NumericArrayMachine(idl_type, count, code, dtype)
+        elif node_type == Nodetype.ARRAY and isinstance(
+            current, ArrayMachine | PlainCdrV2ArrayOfPrimitiveMachine
+        ):
+            machine.members_machines[field_name] = _NumericArrayMachine(
+                idl_type, count, code, dtype
+            )
 
 
 # --- class generation ----------------------------------------------------------------------------
@@ -236,7 +244,9 @@ def _rclpy_field_type(node_type: Any, detail: Any) -> str:
     """Field type as rclpy's ``get_fields_and_field_types`` spells it."""
     if node_type == Nodetype.BASE:
         name, bound = detail
-        base = {"float32": "float", "float64": "double", "byte": "octet", "char": "uint8"}.get(name, name)
+        base = {"float32": "float", "float64": "double", "byte": "octet", "char": "uint8"}.get(
+            name, name
+        )
         return f"{base}<={bound}" if bound and name == "string" else base
     if node_type == Nodetype.NAME:
         package, _, name = detail.split("/")
