@@ -4,9 +4,14 @@ Per aircraft and decision, with the weights of :class:`ObservationRewardWeights`
 
 * ``r1 = -lambda1 * d_fire``: distance from the aircraft to the nearest burning cell centre,
   capped at the sensor range (500 m), so r1 is in [-1, 0];
-* ``r2 = -lambda2 * n_clear``: number of non-burning map cells whose centre lies within
-  r0 = 50 m of the aircraft (at most 81), so r2 is in [-1, 0]: fly over the fire front;
-* ``r3 = -lambda3 * phi^2``: at most 0.38 at the 50 degree limit: fly smoothly;
+* ``r2 = -lambda2 * n_clear``: number of non-burning cells whose centre lies within
+  r0 = 50 m of the aircraft (81 cells in the disc), so r2 is in [-1, 0]: fly over the fire
+  front. Cells beyond the map edge count as non-burning (there is no fire there): otherwise
+  leaving the map would be a way to escape r2, and the planner finds it;
+* ``r3 = -lambda3 * phi^2``: at most 0.038 per decision at the 50 degree limit: fly
+  smoothly. It is kept an order below r1/r2 on purpose: a 180 degree turn takes ~50
+  decisions, and with a larger lambda3 turning back towards a fire costs more than the
+  distance it saves over any plannable horizon (the planner then flies straight away);
 * ``r4 = -lambda4 * sum_j exp(-rho_j / c)``: c = 100 m, 1 per aircraft on top of you.
 
 Both are evaluated at the centre of the cell the aircraft is over. ``d_fire`` is read from a
@@ -14,8 +19,7 @@ Euclidean distance transform computed once per fire step. ``n_clear`` is counted
 from the burning grid (81 cells per aircraft); the receding-horizon planner, which scores
 thousands of hypothetical positions, instead reads it from a disc-count map (one
 convolution per fire step): both give the same integer. Off the map, ``d_fire`` is measured
-to the nearest map cell with the distance outside added (still capped); ``n_clear`` counts
-map cells only.
+to the nearest map cell with the distance outside added (still capped).
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ class ObservationRewardWeights:
     """lambda_1, per metre to the nearest burning cell."""
     clear_cells: float = 1.0 / 81.0
     """lambda_2, per non-burning cell within ``clear_radius_m``."""
-    bank: float = 0.5
+    bank: float = 0.05
     """lambda_3, per squared radian of bank."""
     proximity: float = 1.0
     """lambda_4, per unit of exp(-range / proximity_scale_m) to each other aircraft."""
@@ -59,7 +63,7 @@ class FireFieldMaps(NamedTuple):
     distance_m: np.ndarray
     """(E, H, W) distance from each cell centre to the nearest burning cell centre (capped)."""
     clear_count: np.ndarray | None
-    """(E, H + 2 pad, W + 2 pad) non-burning map cells within r0 of each cell centre, or None."""
+    """(E, H + 2 pad, W + 2 pad) non-burning cells within r0 of each cell centre, or None."""
 
 
 def disc_kernel(radius_m: float) -> np.ndarray:
@@ -80,10 +84,14 @@ def distance_to_fire(burning: np.ndarray, max_distance_m: float) -> np.ndarray:
 
 
 def clear_count_map(burning: np.ndarray, radius_m: float) -> np.ndarray:
-    """Non-burning map cells within ``radius_m`` of each cell centre, padded by the radius."""
+    """Non-burning cells within ``radius_m`` of each cell centre, padded by the radius.
+
+    Cells off the map count as non-burning.
+    """
     kernel = disc_kernel(radius_m)
     pad = kernel.shape[0] // 2
-    clear = np.pad(~burning, ((0, 0), (2 * pad, 2 * pad), (2 * pad, 2 * pad)))
+    width = ((0, 0), (2 * pad, 2 * pad), (2 * pad, 2 * pad))
+    clear = np.pad(~burning, width, constant_values=True)
     # Counts are small integers: exact in float32 whatever the convolution's order.
     counts = F.conv2d(
         torch.from_numpy(clear.astype(np.float32))[:, None], torch.from_numpy(kernel)[None, None]
@@ -108,7 +116,7 @@ def fire_field_maps(
 def count_clear_cells(
     burning: np.ndarray, env: np.ndarray, row: np.ndarray, col: np.ndarray, radius_m: float
 ) -> np.ndarray:
-    """Non-burning map cells within ``radius_m`` of the centres of cells (row, col) of ``env``."""
+    """Non-burning cells (off-map ones included) within ``radius_m`` of cells (row, col)."""
     kernel = disc_kernel(radius_m)
     half = kernel.shape[0] // 2
     d_row, d_col = np.nonzero(kernel)
@@ -118,7 +126,7 @@ def count_clear_cells(
     values = burning[
         env[..., None], np.clip(rows, 0, GRID_SIZE - 1), np.clip(cols, 0, GRID_SIZE - 1)
     ]
-    return (inside & ~values).sum(axis=-1).astype(np.float64)
+    return (~(inside & values)).sum(axis=-1).astype(np.float64)
 
 
 def fire_terms(
@@ -150,7 +158,7 @@ def fire_terms(
             maps.clear_count[
                 env, np.clip(row + pad, 0, padded - 1), np.clip(col + pad, 0, padded - 1)
             ],
-            0.0,
+            float(disc_kernel(weights.clear_radius_m).sum()),
         ).astype(np.float64)
     return -weights.distance * distance - weights.clear_cells * clear
 

@@ -1,0 +1,131 @@
+"""Evaluation protocol (SPEC 2.7): score = summed team belief reward, over seeded episodes.
+
+All episodes run as one batch (each with its own seed, so results do not depend on how many
+run together). Reported per episode: score, flight time, belief IoU at the end (believed
+burning vs burning cells), mean belief age at the burning cells at the end; and the mean
+wall time a controller needs per aircraft decision.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from wildfire_belief.belief import belief_iou, mean_age_at_burning
+from wildfire_learning.controllers import Controller
+from wildfire_learning.env import EnvConfig, WildfireVecEnv
+
+
+@dataclass
+class EpisodeRecord:
+    """Outcome of one episode."""
+
+    seed: int
+    shape: str
+    wind: tuple[float, float]
+    score: int
+    decisions: int
+    terminated: bool
+    belief_iou: float
+    mean_age_burning_s: float
+    trajectory: np.ndarray | None = None
+    """(decisions + 1, N, 2) positions, if recorded."""
+    final_burning: np.ndarray | None = None
+    final_affected: np.ndarray | None = None
+    final_belief: np.ndarray | None = None
+
+
+@dataclass
+class EvaluationSummary:
+    """Outcome of an evaluation run."""
+
+    policy: str
+    episodes: list[EpisodeRecord] = field(default_factory=list)
+    seconds_per_decision: float = 0.0
+    wall_time_s: float = 0.0
+
+    @property
+    def scores(self) -> np.ndarray:
+        return np.array([e.score for e in self.episodes], dtype=np.float64)
+
+    def to_json(self) -> dict[str, object]:
+        scores = self.scores
+        sem = float(scores.std(ddof=1) / np.sqrt(scores.size)) if scores.size > 1 else 0.0
+        return {
+            "policy": self.policy,
+            "episodes": len(self.episodes),
+            "seeds": [e.seed for e in self.episodes],
+            "scores": scores.tolist(),
+            "score_mean": float(scores.mean()),
+            "score_sem": sem,
+            "flight_time_s": [e.decisions / 10.0 for e in self.episodes],
+            "belief_iou_mean": float(np.mean([e.belief_iou for e in self.episodes])),
+            "mean_age_burning_s": float(np.nanmean([e.mean_age_burning_s for e in self.episodes])),
+            "seconds_per_decision": self.seconds_per_decision,
+            "wall_time_s": self.wall_time_s,
+        }
+
+
+def evaluate(
+    controller: Controller,
+    config: EnvConfig,
+    seeds: list[int],
+    policy_name: str = "",
+    record: bool = False,
+    progress: Callable[[int, int], None] | None = None,
+) -> EvaluationSummary:
+    """Fly ``controller`` on one episode per seed; ``progress(done, total)`` is called per decision."""
+    config = replace(config, observation=controller.observation)
+    env = WildfireVecEnv(config, len(seeds))
+    observations = env.reset(np.asarray(seeds))
+    controller.reset(env)
+    trajectory = [np.stack([env.aircraft.x_m, env.aircraft.y_m], axis=-1)] if record else []
+    policy_seconds = 0.0
+    aircraft_decisions = 0
+    start = time.perf_counter()
+    while not env.done.all():
+        active = ~env.done
+        tic = time.perf_counter()
+        actions = controller.act(env, observations)
+        policy_seconds += time.perf_counter() - tic
+        aircraft_decisions += int(active.sum()) * config.n_aircraft
+        observations = env.step(actions).observations
+        if record:
+            trajectory.append(np.stack([env.aircraft.x_m, env.aircraft.y_m], axis=-1))
+        if progress is not None:
+            progress(int(env.decisions.max()), config.max_decisions)
+    wall = time.perf_counter() - start
+
+    ious = belief_iou(env.belief.burning, env.fire.burning)
+    ages = mean_age_at_burning(env.belief.age_s(), env.fire.burning)
+    affected = env.fire.affected()
+    summary = EvaluationSummary(
+        policy=policy_name,
+        seconds_per_decision=policy_seconds / max(aircraft_decisions, 1),
+        wall_time_s=wall,
+    )
+    path = np.stack(trajectory, axis=1) if record else None  # (E, T + 1, N, 2)
+    for e, seed in enumerate(seeds):
+        summary.episodes.append(
+            EpisodeRecord(
+                seed=int(seed),
+                shape=env.shapes[e].value,
+                wind=(float(env.fire.wind[e, 0]), float(env.fire.wind[e, 1])),
+                score=int(env.scores[e]),
+                decisions=int(env.decisions[e]),
+                terminated=bool(env.terminated[e]),
+                belief_iou=float(ious[e]),
+                mean_age_burning_s=float(ages[e]),
+                trajectory=None if path is None else path[e, : env.decisions[e] + 1],
+                final_burning=env.fire.burning[e].copy() if record else None,
+                final_affected=affected[e].copy() if record else None,
+                final_belief=env.belief.burning[e].copy() if record else None,
+            )
+        )
+    return summary
+
+
+__all__ = ["EpisodeRecord", "EvaluationSummary", "evaluate"]
