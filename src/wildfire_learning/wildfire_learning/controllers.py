@@ -99,7 +99,13 @@ class RecedingHorizonEnvController:
 
 
 class QNetworkController:
-    """Greedy TorchScript Q-network (observation- or belief-based per its card)."""
+    """Greedy TorchScript Q-network (observation- or belief-based per its card).
+
+    Each ownship is evaluated on its own (a batch of one image and its K pairwise states),
+    exactly as an agent node evaluates it: a larger batch may let the math libraries pick
+    other kernels, which can change the last bits of a Q-value and so, on a near tie, an
+    action. Evaluation then flies bit-for-bit what the distributed system flies.
+    """
 
     def __init__(self, path: str | Path) -> None:
         self.policy = TorchScriptPolicy(path)
@@ -110,12 +116,11 @@ class QNetworkController:
 
     def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
         images, states = observations["image"], observations["state"]
-        num_envs, n = images.shape[:2]
-        actions = self.policy.act(
-            images.reshape(num_envs * n, *images.shape[2:]),
-            states.reshape(num_envs * n, *states.shape[2:]),
-        )
-        return actions.reshape(num_envs, n)
+        actions = np.zeros(images.shape[:2], dtype=np.int64)
+        for e in np.flatnonzero(~env.done).tolist():
+            for k in range(images.shape[1]):
+                actions[e, k] = self.policy.act(images[e, k : k + 1], states[e, k : k + 1])[0]
+        return actions
 
 
 def resolve_policy_path(name: str) -> Path:

@@ -1,0 +1,90 @@
+"""Figures in the style of the paper: fire propagation, and flight paths over the fire."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only: never open a window
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.colors import ListedColormap  # noqa: E402
+
+from wildfire_sim.grid import MAP_SIZE_M  # noqa: E402
+
+EXTENT = (0.0, MAP_SIZE_M, 0.0, MAP_SIZE_M)
+# 0 unburnt, 1 burnt out, 2 burning.
+FIRE_COLOURS = ListedColormap(["#f4f1e8", "#5b5b5b", "#e8491d"])
+
+
+def fire_state_image(burning: np.ndarray, affected: np.ndarray) -> np.ndarray:
+    """0 unburnt, 1 burnt (affected, not burning), 2 burning."""
+    return np.where(burning, 2, np.where(affected, 1, 0))
+
+
+def _map_axes(ax: plt.Axes, title: str) -> None:
+    ax.set_title(title, fontsize=9)
+    ax.set_xlim(0, MAP_SIZE_M)
+    ax.set_ylim(0, MAP_SIZE_M)
+    ax.set_aspect("equal")
+    ax.tick_params(labelsize=7)
+
+
+def plot_fire_propagation(
+    frames: Sequence[tuple[int, np.ndarray, np.ndarray, np.ndarray]],
+    path: str | Path,
+    title: str,
+) -> None:
+    """Rows of (fire, fuel) maps; ``frames`` holds (fire step, burning, affected, fuel)."""
+    fig, axes = plt.subplots(len(frames), 2, figsize=(6, 2.9 * len(frames)), squeeze=False)
+    for row, (step, burning, affected, fuel) in enumerate(frames):
+        ax_fire, ax_fuel = axes[row]
+        ax_fire.imshow(fire_state_image(burning, affected), origin="lower", extent=EXTENT,
+                       cmap=FIRE_COLOURS, vmin=0, vmax=2, interpolation="nearest")
+        _map_axes(ax_fire, f"fire locations, t = {step * 2.5:.0f} s")
+        image = ax_fuel.imshow(fuel, origin="lower", extent=EXTENT, cmap="YlGn", vmin=0,
+                               vmax=22, interpolation="nearest")
+        _map_axes(ax_fuel, "fuel map")
+        fig.colorbar(image, ax=ax_fuel, fraction=0.046)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_episode(
+    burning: np.ndarray,
+    affected: np.ndarray,
+    believed: np.ndarray,
+    trajectory: np.ndarray,
+    path: str | Path,
+    title: str,
+) -> None:
+    """True fire, shared belief, and flight paths over the fire; ``trajectory`` (T, N, 2)."""
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.6))
+    truth = fire_state_image(burning, affected)
+    axes[0].imshow(truth, origin="lower", extent=EXTENT, cmap=FIRE_COLOURS, vmin=0, vmax=2,
+                   interpolation="nearest")
+    _map_axes(axes[0], "true fire (red burning, grey burnt)")
+    axes[1].imshow(believed, origin="lower", extent=EXTENT, cmap="Reds", vmin=0, vmax=1.5,
+                   interpolation="nearest")
+    _map_axes(axes[1], "shared belief (believed burning)")
+    axes[2].imshow(truth, origin="lower", extent=EXTENT, cmap=FIRE_COLOURS, vmin=0, vmax=2,
+                   interpolation="nearest", alpha=0.6)
+    colours = plt.cm.tab10(np.arange(trajectory.shape[1]) % 10)
+    for k in range(trajectory.shape[1]):
+        xy = trajectory[:, k]
+        axes[2].plot(xy[:, 0], xy[:, 1], color=colours[k], lw=1.0, label=f"uav{k}")
+        axes[2].plot(*xy[0], "o", color=colours[k], ms=4)
+        axes[2].plot(*xy[-1], ">", color=colours[k], ms=6)
+    axes[2].legend(fontsize=7, loc="upper right")
+    _map_axes(axes[2], "flight paths (o start, > end)")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+__all__ = ["fire_state_image", "plot_episode", "plot_fire_propagation"]
