@@ -50,9 +50,9 @@ class TorchScriptPolicy:
         try:
             self.module = torch.jit.load(str(path), map_location="cpu", _extra_files=extra_files)
         except (RuntimeError, ValueError) as error:
-            first_line = str(error).strip().splitlines()[0] if str(error).strip() else "unreadable"
+            reason = str(error).strip().splitlines()[0].split(". ")[0] if str(error).strip() else ""
             raise AgentConfigError(
-                f"policy file {path}: not a TorchScript module ({first_line})"
+                f"policy file {path}: not a TorchScript module ({reason or 'unreadable'})"
             ) from None
         try:
             self.card: dict[str, Any] = json.loads(extra_files[POLICY_CARD_FILE] or "null") or {}

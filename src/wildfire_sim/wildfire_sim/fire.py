@@ -241,7 +241,7 @@ class BatchedFire:
         burning &= fuel > 0
         burning |= ignites
         self.steps += stepped
-        self._grow_window()
+        self._shrink_window()
 
     def _draw_uniforms(self, env_of_candidate: np.ndarray) -> np.ndarray:
         """One uniform per candidate cell, each from its environment's own generator.
@@ -270,23 +270,29 @@ class BatchedFire:
     def _active_window(self) -> tuple[slice, slice]:
         """Rows and columns holding every burning cell with a stencil margin (all envs)."""
         if self._window is None:
-            rows = np.flatnonzero(self._burning.any(axis=(1, 2)))
-            cols = np.flatnonzero(self._burning.any(axis=(0, 2)))
-            if rows.size == 0:
-                self._window = (0, 0, 0, 0)
-            else:
-                self._window = (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
-            self._grow_window()
+            self._window = self._burning_bounds(0, self.grid_size, 0, self.grid_size)
         r0, r1, c0, c1 = self._window
         return slice(r0, r1), slice(c0, c1)
 
-    def _grow_window(self) -> None:
-        """Widen the window by the stencil radius: how far fire can jump in one step."""
-        if self._window is None:
-            return
-        r0, r1, c0, c1 = self._window
+    def _burning_bounds(self, r0: int, r1: int, c0: int, c1: int) -> tuple[int, int, int, int]:
+        """Bounding box of the burning cells inside rows r0:r1, columns c0:c1, plus margin."""
+        part = self._burning[r0:r1, c0:c1]
+        rows = np.flatnonzero(part.any(axis=(1, 2)))
+        if rows.size == 0:
+            return (0, 0, 0, 0)
+        cols = np.flatnonzero(part.any(axis=(0, 2)))
         m, n = STENCIL_RADIUS, self.grid_size
-        self._window = (max(r0 - m, 0), min(r1 + m, n), max(c0 - m, 0), min(c1 + m, n))
+        return (
+            max(r0 + int(rows[0]) - m, 0),
+            min(r0 + int(rows[-1]) + 1 + m, n),
+            max(c0 + int(cols[0]) - m, 0),
+            min(c0 + int(cols[-1]) + 1 + m, n),
+        )
+
+    def _shrink_window(self) -> None:
+        """After a step, fit the window to the burning cells again (fires burn out too)."""
+        if self._window is not None:
+            self._window = self._burning_bounds(*self._window)
 
     def affected(self) -> np.ndarray:
         """Cells burning or with less fuel than they started with, (E, H, W) bool."""

@@ -1,0 +1,105 @@
+"""Benchmarks of the simulation core: fire stepping, environment throughput, planning."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from wildfire_bringup.bench.reference_fire import ReferenceFire
+from wildfire_learning.controllers import RecedingHorizonEnvController
+from wildfire_learning.env import EnvConfig, WildfireVecEnv
+from wildfire_sim.fire import BatchedFire
+from wildfire_sim.shapes import shape_masks
+
+
+def bench_fire(steps: int = 80, batch_sizes: tuple[int, ...] = (16, 64, 256, 1024)) -> dict[str, Any]:
+    """Fire steps per second per environment: batched model vs the single-grid reference.
+
+    Every run starts from ignition and takes ``steps`` fire steps (80 steps: about the time
+    a windless fire needs to reach the border), so the figure covers small and large fires.
+    """
+    masks = shape_masks("circular")
+    wind = np.array([0.3, -0.2])
+    reference_seeds = 4
+    tic = time.perf_counter()
+    for seed in range(reference_seeds):
+        reference = ReferenceFire(seed, masks.ignition, masks.fuel, wind)
+        for _ in range(steps):
+            reference.step()
+    reference_rate = reference_seeds * steps / (time.perf_counter() - tic)
+
+    rates: dict[int, float] = {}
+    for batch in batch_sizes:
+        fire = BatchedFire(batch)
+        fire.reset(np.arange(batch), np.arange(batch), masks.ignition, masks.fuel, wind)
+        tic = time.perf_counter()
+        for _ in range(steps):
+            fire.step()
+        rates[batch] = batch * steps / (time.perf_counter() - tic)
+    best = max(rates, key=rates.__getitem__)
+    return {
+        "fire_env_steps_per_s": rates[best],
+        "fire_batch_size": best,
+        "fire_env_steps_per_s_by_batch": {str(k): v for k, v in rates.items()},
+        "fire_reference_steps_per_s": reference_rate,
+        "fire_speedup_vs_reference": rates[best] / reference_rate,
+    }
+
+
+def _decisions_per_s(observation: str, num_envs: int, decisions: int) -> float:
+    config = EnvConfig(n_aircraft=2, observation=observation, reward=observation,
+                       shapes=("circular", "arc"))
+    env = WildfireVecEnv(config, num_envs)
+    env.reset(np.arange(num_envs))
+    rng = np.random.default_rng(0)
+    actions = rng.integers(0, 2, size=(decisions, num_envs, 2))
+    tic = time.perf_counter()
+    for k in range(decisions):
+        env.step(actions[k])
+        if env.done.any():
+            done = np.flatnonzero(env.done)
+            env.reset(rng.integers(0, 2**31, size=done.size), done)
+    return decisions * num_envs * 2 / (time.perf_counter() - tic)
+
+
+def bench_env(decisions: int = 300, batch_sizes: tuple[int, ...] = (32, 64, 128)) -> dict[str, Any]:
+    """Aircraft decisions per second of the batched environment, 2 aircraft, random actions.
+
+    Includes rendering every observation (sensor or ego belief images), rewards, visits,
+    fire steps and episode resets; not the policy.
+    """
+    result: dict[str, Any] = {}
+    for observation, key in (("belief", "decisions_per_s"), ("obs", "decisions_per_s_obs")):
+        rates = {b: _decisions_per_s(observation, b, decisions) for b in batch_sizes}
+        best = max(rates, key=rates.__getitem__)
+        result[key] = rates[best]
+        result[f"{key}_batch_size"] = best
+    return result
+
+
+def bench_receding_horizon(decisions: int = 100) -> dict[str, Any]:
+    """Wall time of the receding-horizon controller for one aircraft on one core."""
+    config = EnvConfig(n_aircraft=2, observation="none", wind=(0.0, 0.0))
+    env = WildfireVecEnv(config, 1)
+    observations = env.reset([1_000_000])
+    controller = RecedingHorizonEnvController()
+    controller.reset(env)
+    per_decision: list[float] = []
+    for _ in range(decisions):
+        tic = time.perf_counter()
+        actions = controller.act(env, observations)
+        per_decision.append((time.perf_counter() - tic) / config.n_aircraft)
+        observations = env.step(actions).observations
+    times = np.array(per_decision)
+    worst_plan = float(times.max())
+    return {
+        "rh_ms_per_decision": float(times.mean() * 1e3),
+        "rh_plan_ms_worst": worst_plan * 1e3,
+        "rh_keeps_up_10hz": bool(times.mean() < 0.1 and worst_plan < 1.0),
+        "rh_config": vars(controller.config),
+    }
+
+
+__all__ = ["bench_env", "bench_fire", "bench_receding_horizon"]

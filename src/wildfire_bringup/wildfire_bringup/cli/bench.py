@@ -1,0 +1,76 @@
+"""``wildfire bench``: measure the real system's speed (targets live here, not in tests)."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import platform
+import resource
+import time
+from typing import Any
+
+import torch
+
+from wildfire_bringup.cli.common import print_json
+
+# name -> (module, function, what it measures); the modules import lazily so a missing
+# optional part (e.g. no trained model yet) only skips its own figures.
+SUITES: dict[str, tuple[str, str, str]] = {
+    "fire": ("wildfire_bringup.bench.core", "bench_fire", "batched fire model vs reference"),
+    "env": ("wildfire_bringup.bench.core", "bench_env", "environment decisions per second"),
+    "rh": ("wildfire_bringup.bench.core", "bench_receding_horizon", "receding-horizon planning"),
+    "inference": ("wildfire_bringup.bench.inference", "bench_inference", "policy inference"),
+    "dds": ("wildfire_bringup.bench.dds", "bench_dds", "DDS grid fan-out and overhead"),
+    "system": ("wildfire_bringup.bench.system", "bench_system", "distributed system"),
+}
+QUICK_CAPABLE = {"inference", "dds", "system"}
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "bench",
+        help="measure speed (fire, environment, planner, inference, DDS, system)",
+        description="Run the benchmarks and report their figures.",
+    )
+    parser.add_argument("--only", nargs="+", choices=sorted(SUITES), metavar="SUITE",
+                        help=f"run only these suites ({', '.join(SUITES)})")
+    parser.add_argument("--quick", action="store_true", help="shorter runs, noisier figures")
+    parser.add_argument("--json", action="store_true", help="print a JSON summary")
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    results: dict[str, Any] = {
+        "machine": {
+            "cpus": len(__import__("os").sched_getaffinity(0)),
+            "python": platform.python_version(),
+            "torch": torch.__version__,
+            "torch_threads": torch.get_num_threads(),
+        }
+    }
+    for name in args.only or list(SUITES):
+        module_name, function_name, what = SUITES[name]
+        try:
+            function = getattr(importlib.import_module(module_name), function_name)
+        except (ModuleNotFoundError, AttributeError):
+            results[name] = {"skipped": f"{module_name}.{function_name} is not available"}
+            continue
+        if not args.json:
+            print(f"[{name}] {what} ...", flush=True)
+        tic = time.perf_counter()
+        kwargs = {"quick": True} if args.quick and name in QUICK_CAPABLE else {}
+        if args.quick and name == "fire":
+            kwargs = {"steps": 40}
+        if args.quick and name == "env":
+            kwargs = {"decisions": 100}
+        figures = function(**kwargs)
+        figures["bench_seconds"] = time.perf_counter() - tic
+        results[name] = figures
+        if not args.json:
+            for key, value in figures.items():
+                shown = f"{value:.4g}" if isinstance(value, float) else value
+                print(f"  {key}: {shown}")
+    results["peak_rss_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    if args.json:
+        print_json(results)
+    return 0
