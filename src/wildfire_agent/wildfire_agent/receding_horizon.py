@@ -24,7 +24,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wildfire_agent.dynamics import AircraftState, apply_action, propagate
+from wildfire_agent.dynamics import (
+    BANK_STEP_RAD,
+    DECISION_PERIOD_S,
+    MAX_BANK_STEPS,
+    SPEED_MPS,
+    AircraftState,
+    apply_action,
+    propagate,
+    turn_rate,
+)
 from wildfire_agent.rewards import (
     FireFieldMaps,
     ObservationRewardWeights,
@@ -65,6 +74,21 @@ def predict_constant_bank(others: AircraftState, steps: int) -> tuple[np.ndarray
     return np.stack(xs, axis=-1), np.stack(ys, axis=-1)
 
 
+def _bank_sequences(bank_steps: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    """Bank (in steps) after each action of ``actions`` (..., T), starting from ``bank_steps``."""
+    banks = np.empty(actions.shape, dtype=np.int64)
+    bank = bank_steps
+    for t in range(actions.shape[-1]):
+        bank = apply_action(bank, actions[..., t])
+        banks[..., t] = bank
+    return banks
+
+
+_BANK_LEVELS = np.arange(-MAX_BANK_STEPS, MAX_BANK_STEPS + 1)
+_TURN_RATE = turn_rate(_BANK_LEVELS * BANK_STEP_RAD)
+"""Heading rate of each bank level (index bank_steps + 10)."""
+
+
 def score_sequences(
     actions: np.ndarray,
     own: AircraftState,
@@ -76,26 +100,46 @@ def score_sequences(
     """Summed reward of action sequences ``actions`` (P, ..., T) flown from ``own`` (P,).
 
     ``others_xy`` are the predicted positions of the other aircraft, each (P, K, T).
+    The trajectory is this planner's model of the dynamics: the same exact arcs as
+    ``dynamics.propagate``, but integrated for all T steps at once with cumulative sums
+    (no per-step heading wrap), which is ~10x faster than stepping and equally accurate.
     """
     extra = (1,) * (actions.ndim - 2)
-    shape = actions.shape[:-1]
-    state = AircraftState(
-        *(np.broadcast_to(field.reshape(-1, *extra), shape).copy() for field in own)
+    own_x, own_y, own_heading, own_bank = (f.reshape(-1, *extra, 1) for f in own)
+    banks = _bank_sequences(own_bank[..., 0], actions)  # (P, ..., T)
+    rate = _TURN_RATE[banks + MAX_BANK_STEPS]
+    heading = np.concatenate(  # (P, ..., T + 1): before the first step, then after each
+        [
+            np.broadcast_to(own_heading, (*banks.shape[:-1], 1)),
+            own_heading + np.cumsum(rate * DECISION_PERIOD_S, axis=-1),
+        ],
+        axis=-1,
     )
-    env = np.broadcast_to(env.reshape(-1, *extra), shape)
+    sin_heading, cos_heading = np.sin(heading), np.cos(heading)
+    turning = banks != 0
+    arc_radius = SPEED_MPS / np.where(turning, rate, 1.0)
+    step_m = SPEED_MPS * DECISION_PERIOD_S
+    dx = np.where(
+        turning,
+        arc_radius * (sin_heading[..., 1:] - sin_heading[..., :-1]),
+        step_m * cos_heading[..., :-1],
+    )
+    dy = np.where(
+        turning,
+        arc_radius * (cos_heading[..., :-1] - cos_heading[..., 1:]),
+        step_m * sin_heading[..., :-1],
+    )
+    x = own_x + np.cumsum(dx, axis=-1)
+    y = own_y + np.cumsum(dy, axis=-1)
+    reward = fire_terms(maps, np.broadcast_to(env.reshape(-1, *extra, 1), x.shape), x, y, weights)
+    reward -= weights.bank * (banks * BANK_STEP_RAD) ** 2
     other_x, other_y = others_xy
-    total = np.zeros(shape)
-    for t in range(actions.shape[-1]):
-        state = propagate(state._replace(bank_steps=apply_action(state.bank_steps, actions[..., t])))
-        reward = fire_terms(maps, env, state.x_m, state.y_m, weights)
-        reward -= weights.bank * state.bank_rad**2
-        for k in range(other_x.shape[1]):
-            ox = other_x[:, k, t].reshape(-1, *extra)
-            oy = other_y[:, k, t].reshape(-1, *extra)
-            closeness = np.exp(-np.hypot(state.x_m - ox, state.y_m - oy) / weights.proximity_scale_m)
-            reward -= weights.proximity * closeness
-        total += reward
-    return total
+    for k in range(other_x.shape[1]):
+        ox = other_x[:, k].reshape(-1, *extra, other_x.shape[-1])
+        oy = other_y[:, k].reshape(-1, *extra, other_y.shape[-1])
+        reward -= weights.proximity * np.exp(-np.hypot(x - ox, y - oy) / weights.proximity_scale_m)
+    # A sequential sum (cumsum), so the total never depends on the batch's memory layout.
+    return np.cumsum(reward, axis=-1)[..., -1]
 
 
 def plan(

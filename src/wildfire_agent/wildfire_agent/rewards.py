@@ -24,6 +24,7 @@ to the nearest map cell with the distance outside added (still capped).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -66,6 +67,7 @@ class FireFieldMaps(NamedTuple):
     """(E, H + 2 pad, W + 2 pad) non-burning cells within r0 of each cell centre, or None."""
 
 
+@functools.lru_cache(maxsize=8)
 def disc_kernel(radius_m: float) -> np.ndarray:
     """Square 0/1 kernel of the cells whose centre is within ``radius_m`` of the centre cell."""
     half = int(np.floor(radius_m / CELL_SIZE_M))
@@ -145,19 +147,23 @@ def fire_terms(
         np.maximum(np.maximum(-x_m, x_m - GRID_SIZE * CELL_SIZE_M), 0.0),
         np.maximum(np.maximum(-y_m, y_m - GRID_SIZE * CELL_SIZE_M), 0.0),
     )
-    nearest = maps.distance_m[env, np.clip(row, 0, GRID_SIZE - 1), np.clip(col, 0, GRID_SIZE - 1)]
+    last = GRID_SIZE - 1
+    # (np.minimum/np.maximum rather than np.clip: this runs thousands of times per plan.)
+    nearest = maps.distance_m[
+        env, np.minimum(np.maximum(row, 0), last), np.minimum(np.maximum(col, 0), last)
+    ]
     distance = np.minimum(nearest + outside, weights.max_distance_m)
     if maps.clear_count is None:
         clear = count_clear_cells(maps.burning, env, row, col, weights.clear_radius_m)
     else:
         pad = (maps.clear_count.shape[-1] - GRID_SIZE) // 2
-        padded = maps.clear_count.shape[-1]
+        padded_last = maps.clear_count.shape[-1] - 1
         in_pad = (row >= -pad) & (row < GRID_SIZE + pad) & (col >= -pad) & (col < GRID_SIZE + pad)
+        padded_row = np.minimum(np.maximum(row + pad, 0), padded_last)
+        padded_col = np.minimum(np.maximum(col + pad, 0), padded_last)
         clear = np.where(
             in_pad,
-            maps.clear_count[
-                env, np.clip(row + pad, 0, padded - 1), np.clip(col + pad, 0, padded - 1)
-            ],
+            maps.clear_count[env, padded_row, padded_col],
             float(disc_kernel(weights.clear_radius_m).sum()),
         ).astype(np.float64)
     return -weights.distance * distance - weights.clear_cells * clear
