@@ -1,0 +1,98 @@
+"""One wildfire episode as a PettingZoo ``ParallelEnv`` (agents ``uav0``, ``uav1``, ...).
+
+A thin wrapper over :class:`~wildfire_learning.env.WildfireVecEnv` with one environment:
+see that module for the spaces, rewards, starting state and episode end. Each agent's
+observation is a dict ``{"image": ..., "state": ...}``; ``state()`` is the global view
+(true burning grid, belief, and every aircraft's pose).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from wildfire_learning.env import EnvConfig, WildfireVecEnv
+
+
+class WildfireParallelEnv(ParallelEnv):
+    """PettingZoo parallel API over a single wildfire episode.
+
+    Arguments: ``config`` (:class:`EnvConfig`; ``observation`` must be ``obs`` or
+    ``belief``). ``reset(seed=...)`` fixes the whole episode; without a seed, one is drawn.
+    """
+
+    metadata = {"name": "wildfire_surveillance_v0", "render_modes": []}
+
+    def __init__(self, config: EnvConfig | None = None) -> None:
+        self.config = (config or EnvConfig()).validate()
+        if self.config.observation not in ("obs", "belief"):
+            raise ValueError("WildfireParallelEnv needs observation 'obs' or 'belief'")
+        self.possible_agents = [f"uav{k}" for k in range(self.config.n_aircraft)]
+        self.agents: list[str] = []
+        self._env = WildfireVecEnv(self.config, 1)
+        image_shape = (1, 30, 40) if self.config.observation == "obs" else (2, 100, 100)
+        pairs = max(self.config.n_aircraft - 1, 1)
+        self._observation_space = spaces.Dict(
+            {
+                "image": spaces.Box(0.0, 1.0, image_shape, np.float32),
+                "state": spaces.Box(-np.inf, np.inf, (pairs, 5), np.float32),
+            }
+        )
+        self._action_space = spaces.Discrete(2)
+        self._seed_rng = np.random.default_rng()
+
+    def observation_space(self, agent: str) -> spaces.Space:
+        return self._observation_space
+
+    def action_space(self, agent: str) -> spaces.Space:
+        return self._action_space
+
+    def _per_agent(self, observations: dict[str, np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
+        return {
+            agent: {"image": observations["image"][0, k], "state": observations["state"][0, k]}
+            for k, agent in enumerate(self.possible_agents)
+        }
+
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, Any]]]:
+        if seed is None:
+            seed = int(self._seed_rng.integers(0, 2**31))
+        observations = self._env.reset([seed])
+        self.agents = [] if self._env.done[0] else list(self.possible_agents)
+        return self._per_agent(observations), {agent: {} for agent in self.possible_agents}
+
+    def step(self, actions: dict[str, int]) -> tuple[dict, dict, dict, dict, dict]:
+        joint = np.array([[int(actions[agent]) for agent in self.possible_agents]])
+        result = self._env.step(joint)
+        observations = self._per_agent(result.observations)
+        rewards = {a: float(result.rewards[0, k]) for k, a in enumerate(self.possible_agents)}
+        terminated = bool(result.terminated[0])
+        truncated = bool(result.truncated[0])
+        infos = {a: {"team_reward": int(result.team_reward[0])} for a in self.possible_agents}
+        terminations = {agent: terminated for agent in self.agents}
+        truncations = {agent: truncated for agent in self.agents}
+        observations = {agent: observations[agent] for agent in self.agents}
+        rewards = {agent: rewards[agent] for agent in self.agents}
+        infos = {agent: infos[agent] for agent in self.agents}
+        if terminated or truncated:
+            self.agents = []
+        return observations, rewards, terminations, truncations, infos
+
+    def state(self) -> np.ndarray:
+        """Global view: (3, 100, 100) true burning, believed burning, belief age / 255."""
+        env = self._env
+        return np.stack(
+            [env.fire.burning[0], env.belief.burning[0], env.belief.age_s()[0] / 255.0]
+        ).astype(np.float32)
+
+    @property
+    def score(self) -> int:
+        """Team score so far (SPEC 2.7)."""
+        return int(self._env.scores[0])
+
+
+__all__ = ["WildfireParallelEnv"]
