@@ -1,0 +1,259 @@
+"""``wildfire train``: deep Q-learning of a policy, in simulation or from recorded bags.
+
+Every field of :class:`wildfire_learning.dqn.TrainConfig` is an option (``--total-samples``,
+``--num-envs``, ``--lr`` ...). A run writes under ``--run-dir`` (default
+``runs/<approach>-<arch>-s<seed>``): ``checkpoint.pt`` + ``replay.npz`` (``--resume``
+continues from them), ``learning_curve.csv``/``.png`` and ``train_summary.json``; the policy
+goes to ``--out`` (default ``<run-dir>/<approach>_policy.pt``) with its card as a sidecar JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+from dataclasses import fields
+from pathlib import Path
+from typing import Any
+
+from wildfire_bringup.cli.common import (
+    UserError,
+    non_negative_int,
+    positive_float,
+    positive_int,
+    print_json,
+)
+from wildfire_learning.dqn import RunOptions, Status, TrainConfig, config_from_dict, train
+
+# Option name of each TrainConfig field whose CLI name differs from the field.
+OPTION_NAMES = {"learning_rate": "lr", "max_wind": "max-wind"}
+SHORT_HELP_FIELDS = {"approach", "arch", "shapes", "eval_shapes"}
+
+
+def _option(name: str) -> str:
+    return "--" + OPTION_NAMES.get(name, name.replace("_", "-"))
+
+
+def _field_docs() -> dict[str, str]:
+    """Field docstrings of TrainConfig (the attribute docstrings in its source)."""
+    import ast
+    import inspect
+
+    import wildfire_learning.dqn as dqn
+
+    tree = ast.parse(inspect.getsource(dqn.TrainConfig))
+    docs: dict[str, str] = {}
+    body = tree.body[0].body  # type: ignore[attr-defined]
+    for node, after in itertools.pairwise(body):
+        if (
+            isinstance(node, ast.AnnAssign)
+            and isinstance(node.target, ast.Name)
+            and isinstance(after, ast.Expr)
+            and isinstance(after.value, ast.Constant)
+        ):
+            docs[node.target.id] = str(after.value.value)
+    return docs
+
+
+def _probability(text: str) -> float:
+    value = float(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"expected a number in [0, 1], got {text}")
+    return value
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "train",
+        help="train a DQN policy (simulation or recorded bags)",
+        description="Deep Q-learning of the pairwise Q-network (observation- or belief-based) "
+        "with batched environments, replay prefill, target network and AdaMax; periodic "
+        "evaluation on held-out seeds, learning curve, checkpoints (--resume) and a "
+        "TorchScript export with a JSON card.",
+    )
+    docs = _field_docs()
+    defaults = TrainConfig()
+    for spec in fields(TrainConfig):
+        default = getattr(defaults, spec.name)
+        help_text = f"{docs.get(spec.name, '')} (default: {default})"
+        option = _option(spec.name)
+        common: dict[str, Any] = {"dest": spec.name, "default": None, "help": help_text}
+        # Defaults stay None so a resumed run keeps its saved values unless overridden.
+        if spec.name == "approach":
+            parser.add_argument(option, choices=("obs", "belief"), **common)
+        elif spec.name == "arch":
+            parser.add_argument(option, choices=("paper", "fast"), **common)
+        elif spec.name in ("shapes", "eval_shapes"):
+            parser.add_argument(option, nargs="+", metavar="SHAPE", **common)
+        elif spec.name == "channels_last":
+            parser.add_argument(option, action=argparse.BooleanOptionalAction, **common)
+        elif spec.name in ("start_e", "end_e", "max_wind"):
+            parser.add_argument(option, type=_probability, **common)
+        elif isinstance(default, float):
+            kind = _probability if spec.name == "gamma" else positive_float
+            parser.add_argument(option, type=kind, **common)
+        elif spec.name in ("num_envs", "n_aircraft", "buffer_size", "train_frequency",
+                           "batch_size", "target_network_frequency", "eval_episodes",
+                           "torch_threads"):
+            parser.add_argument(option, type=positive_int, **common)
+        else:
+            parser.add_argument(option, type=non_negative_int, **common)
+    parser.add_argument("--run-dir", type=Path, help="run directory (checkpoints, curve)")
+    parser.add_argument("--out", type=Path, metavar="FILE.pt", help="exported policy file")
+    parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
+    parser.add_argument("--baseline", metavar="SCORE|FILE.json",
+                        help="receding-horizon score on the evaluation seeds (a number, or a "
+                        "`wildfire eval --json` output), drawn dashed on the learning curve")
+    parser.add_argument("--from-bag", nargs="+", type=Path, metavar="DIR",
+                        help="rebuild transitions from recorded bags (`wildfire run --record`)")
+    parser.add_argument("--online", action="store_true",
+                        help="with --from-bag: prefill the replay with the bag transitions, "
+                        "then train in simulation (default: train on the bags only)")
+    parser.add_argument("--json", action="store_true", help="print a JSON summary")
+    parser.set_defaults(handler=run)
+
+
+def _baseline(text: str | None) -> float | None:
+    if text is None:
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    path = Path(text)
+    if not path.is_file():
+        raise UserError(f"--baseline {text}: expected a number or a `wildfire eval --json` file")
+    try:
+        value = json.loads(path.read_text())["score_mean"]
+        return float(value)
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+        raise UserError(f"--baseline {path}: expected JSON with a numeric 'score_mean'") from None
+
+
+def build_config(args: argparse.Namespace, saved: dict[str, Any] | None) -> TrainConfig:
+    """Defaults < saved checkpoint config < options given on the command line."""
+    values: dict[str, Any] = dict(saved or {})
+    for spec in fields(TrainConfig):
+        given = getattr(args, spec.name)
+        if given is not None:
+            values[spec.name] = tuple(given) if isinstance(given, list) else given
+    return config_from_dict(values)
+
+
+def run(args: argparse.Namespace) -> int:
+    saved: dict[str, Any] | None = None
+    if args.resume:
+        if args.run_dir is None:
+            raise UserError("--resume: give the --run-dir of the run to continue")
+        from wildfire_learning.dqn import load_checkpoint
+
+        saved = load_checkpoint(args.run_dir)["config"]
+    config = build_config(args, saved).validate()
+    if args.from_bag and not args.online and config.iterations == 0:
+        raise UserError("--from-bag: give --iterations K (offline training runs K iterations)")
+    run_dir = args.run_dir or Path("runs") / f"{config.approach}-{config.arch}-s{config.seed}"
+    if not args.resume and (run_dir / "checkpoint.pt").exists():
+        raise UserError(f"--run-dir {run_dir}: holds a run already (use --resume or a new dir)")
+    out = args.out or run_dir / f"{config.approach}_policy.pt"
+    if out.suffix != ".pt":
+        raise UserError(f"--out {out}: expected a .pt file name")
+    options = RunOptions(
+        run_dir=run_dir,
+        out=out,
+        resume=args.resume,
+        baseline_score=_baseline(args.baseline),
+        bag_dirs=tuple(args.from_bag or ()),
+        offline=bool(args.from_bag) and not args.online,
+    )
+    if args.out is not None and not out.parent.is_dir():
+        raise UserError(f"--out {out}: directory {out.parent} does not exist")
+
+    with _progress(enabled=not args.json) as report:
+        result = train(config, options, report)
+
+    evaluation = result.card["evaluation"]
+    summary = {
+        "approach": config.approach,
+        "arch": config.arch,
+        "out": str(result.out),
+        "run_dir": str(run_dir),
+        "iterations": result.state.iterations,
+        "samples": result.state.samples,
+        "episodes": result.state.episodes,
+        "transitions": result.transitions_from_bags,
+        "wall_time_s": round(result.state.wall_time_s, 2),
+        "samples_per_s": round(result.samples_per_s, 1),
+        "iterations_per_s": round(result.iterations_per_s, 2),
+        "prefill_samples_per_s": round(result.prefill_samples_per_s, 1),
+        "replay_mb": round(result.replay_bytes / 2**20, 1),
+        "max_rss_mb": round(result.max_rss_mb, 1),
+        "score_mean": evaluation["score_mean"],
+        "score_sem": evaluation["score_sem"],
+        "receding_horizon_score": evaluation["receding_horizon_score"],
+        "learning_curve": result.card["learning_curve"],
+        "config": result.card["config"],
+    }
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"trained {config.approach}/{config.arch}: {result.state.iterations} iterations, "
+              f"{result.state.samples} samples in {result.state.wall_time_s:.0f} s; score "
+              f"{evaluation['score_mean']:.1f} +- {evaluation['score_sem']:.1f} on "
+              f"{evaluation['episodes']} held-out episodes")
+        print(f"wrote {result.out} (+ {result.out.with_suffix('.json').name}), curve in {run_dir}")
+    return 0
+
+
+class _progress:
+    """A rich progress bar over training iterations (quiet with --json or without a tty)."""
+
+    def __init__(self, enabled: bool) -> None:
+        import sys
+
+        self.enabled = enabled and sys.stderr.isatty()
+        self.progress: Any = None
+        self.task: Any = None
+
+    def __enter__(self) -> Any:
+        if not self.enabled:
+            return None
+        from rich.progress import (
+            BarColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        self.progress = Progress(
+            TextColumn("[bold]{task.fields[phase]}"),
+            BarColumn(),
+            TextColumn("{task.completed}/{task.total} it"),
+            TextColumn("samples {task.fields[samples]} eps {task.fields[eps]} "
+                       "loss {task.fields[loss]} score {task.fields[score]}"),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+        )
+        self.progress.__enter__()
+        self.task = self.progress.add_task("train", total=1, phase="", samples=0, eps="",
+                                           loss="", score="-")
+        return self.update
+
+    def update(self, status: Status) -> None:
+        self.progress.update(
+            self.task,
+            total=max(status.target_iterations, 1),
+            completed=status.iterations,
+            phase=status.phase,
+            samples=status.samples,
+            eps=f"{status.epsilon:.2f}",
+            loss=f"{status.loss:.3g}",
+            score="-" if status.last_score is None else f"{status.last_score:.0f}",
+        )
+
+    def __exit__(self, *exc: object) -> None:
+        if self.progress is not None:
+            self.progress.__exit__(*exc)
+
+
+__all__ = ["add_parser", "build_config", "run"]

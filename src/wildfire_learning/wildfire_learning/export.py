@@ -1,0 +1,47 @@
+"""Export a trained Q-network as a TorchScript policy file with its JSON card.
+
+The file is ``torch.jit.script`` of the module (loadable by ``torch.jit.load`` with no project
+import) carrying the card as the extra file ``wildfire_policy.json`` (what
+:class:`wildfire_agent.policies.TorchScriptPolicy` reads), and the same card is written as a
+sidecar ``<name>.json`` next to it for humans and tools that do not open TorchScript.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+from typing import Any
+
+import torch
+from torch import nn
+
+from wildfire_agent.policies import save_policy_card
+from wildfire_learning.errors import LearningError
+
+
+def sidecar_path(policy_path: str | Path) -> Path:
+    """``models/obs_policy.pt`` -> ``models/obs_policy.json``."""
+    return Path(policy_path).with_suffix(".json")
+
+
+def export_policy(model: nn.Module, path: str | Path, card: dict[str, Any]) -> Path:
+    """Script ``model`` (a CPU copy in eval mode) and write it with ``card``; return the path."""
+    if card.get("approach") not in ("obs", "belief"):
+        raise LearningError(
+            f"policy card: approach must be obs or belief, got {card.get('approach')!r}"
+        )
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise LearningError(f"--out {path}: directory {path.parent} does not exist")
+    module = copy.deepcopy(model).to("cpu").eval()
+    scripted = torch.jit.script(module)
+    # Write next to the target then rename: an interrupted export never leaves half a file.
+    partial = path.with_name(path.name + ".partial")
+    torch.jit.save(scripted, str(partial), _extra_files=save_policy_card(card))
+    partial.replace(path)
+    sidecar_path(path).write_text(json.dumps(card, indent=2, sort_keys=True) + "\n")
+    return path
+
+
+__all__ = ["export_policy", "sidecar_path"]
