@@ -20,8 +20,20 @@ def run(*args: str, timeout: float = 240) -> subprocess.CompletedProcess[str]:
 
 def test_fire_json_and_png(tmp_path):
     png = tmp_path / "fire.png"
-    result = run("fire", "--shape", "circular", "--wind", "0.5,0", "--steps", "30",
-                 "--seeds", "4", "--png", str(png), "--json")
+    result = run(
+        "fire",
+        "--shape",
+        "circular",
+        "--wind",
+        "0.5,0",
+        "--steps",
+        "30",
+        "--seeds",
+        "4",
+        "--png",
+        str(png),
+        "--json",
+    )
     assert result.returncode == 0, result.stderr
     summary = json.loads(result.stdout)
     assert len(summary["mean_burning"]) == 30 and len(summary["mean_affected"]) == 30
@@ -32,9 +44,24 @@ def test_fire_json_and_png(tmp_path):
 
 def test_eval_json(tmp_path):
     png = tmp_path / "episode.png"
-    result = run("eval", "--policy", "random", "--aircraft", "3", "--shape", "arc",
-                 "--episodes", "3", "--seed", "10", "--duration", "30", "--png", str(png),
-                 "--json")
+    result = run(
+        "eval",
+        "--policy",
+        "random",
+        "--aircraft",
+        "3",
+        "--shape",
+        "arc",
+        "--episodes",
+        "3",
+        "--seed",
+        "10",
+        "--duration",
+        "30",
+        "--png",
+        str(png),
+        "--json",
+    )
     assert result.returncode == 0, result.stderr
     summary = json.loads(result.stdout)
     assert len(summary["scores"]) == 3 and summary["seeds"] == [10, 11, 12]

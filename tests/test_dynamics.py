@@ -11,9 +11,7 @@ from wildfire_sim.seeding import Stream, generator
 
 
 def one(x=0.0, y=0.0, heading=0.0, bank_steps=0) -> AircraftState:
-    return AircraftState(
-        np.array([x]), np.array([y]), np.array([heading]), np.array([bank_steps])
-    )
+    return AircraftState(np.array([x]), np.array([y]), np.array([heading]), np.array([bank_steps]))
 
 
 @pytest.mark.parametrize("bank_steps", [2, 6, 10, -4])

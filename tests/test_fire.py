@@ -75,7 +75,7 @@ def test_wind_drifts_the_fire_downwind():
             fire.step()
 
     def centroid(fire):
-        env, rows, cols = np.nonzero(fire.affected())
+        _env, rows, cols = np.nonzero(fire.affected())
         return cols.mean(), rows.mean()
 
     calm_c, calm_r = centroid(calm)

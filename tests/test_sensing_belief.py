@@ -15,7 +15,10 @@ def test_range_spacing_is_monotone_and_finer_near_the_aircraft():
     assert sensor.RANGES_M[0] == 10.0 and sensor.RANGES_M[-1] == 500.0
     assert (spacing > 0).all() and spacing[0] < spacing[-1]
     assert sensor.observe(np.zeros((1, 100, 100), bool), *np.full((3, 1, 1), 500.0)).shape == (
-        1, 1, 30, 40,
+        1,
+        1,
+        30,
+        40,
     )
 
 

@@ -88,4 +88,10 @@ def save_policy_card(extra: dict[str, Any]) -> dict[str, str]:
     return {POLICY_CARD_FILE: json.dumps(extra, indent=2, sort_keys=True)}
 
 
-__all__ = ["APPROACHES", "POLICY_CARD_FILE", "RandomPolicy", "TorchScriptPolicy", "save_policy_card"]
+__all__ = [
+    "APPROACHES",
+    "POLICY_CARD_FILE",
+    "RandomPolicy",
+    "TorchScriptPolicy",
+    "save_policy_card",
+]

@@ -22,6 +22,7 @@ VISIT_WINDOW = 2 * WINDOW_HALF + 1
 """Edge of the visit window in cells."""
 
 _OFFSETS = np.arange(-WINDOW_HALF, WINDOW_HALF + 1)
+_SPAN = np.arange(VISIT_WINDOW)
 
 
 class VisitWindows(NamedTuple):
@@ -74,8 +75,9 @@ def visited_cells(windows: VisitWindows) -> tuple[np.ndarray, np.ndarray]:
 
 def window_values(grid: np.ndarray, windows: VisitWindows) -> np.ndarray:
     """Values of a (E, H, W) grid in each visit window, (E, N, 21, 21); 0 outside the map."""
-    rows = windows.row0[..., None] + _OFFSETS  # (E, N, 21)
-    cols = windows.col0[..., None] + _OFFSETS
+    # row0/col0 are the windows' south-west cells: the window spans row0 .. row0 + 20.
+    rows = windows.row0[..., None] + _SPAN  # (E, N, 21)
+    cols = windows.col0[..., None] + _SPAN
     env = np.arange(grid.shape[0])[:, None, None, None]
     values = grid[
         env,

@@ -100,7 +100,9 @@ class EnvConfig:
         if self.n_aircraft < 1:
             raise LearningError(f"aircraft: expected >= 1, got {self.n_aircraft}")
         if self.observation not in OBSERVATION_KINDS:
-            raise LearningError(f"observation: expected one of {OBSERVATION_KINDS}, got {self.observation!r}")
+            raise LearningError(
+                f"observation: expected one of {OBSERVATION_KINDS}, got {self.observation!r}"
+            )
         if self.reward not in REWARD_KINDS:
             raise LearningError(f"reward: expected one of {REWARD_KINDS}, got {self.reward!r}")
         if not self.shapes:
@@ -118,7 +120,7 @@ class EnvConfig:
 
     @property
     def max_decisions(self) -> int:
-        return int(round(self.max_duration_s / dynamics.DECISION_PERIOD_S))
+        return round(self.max_duration_s / dynamics.DECISION_PERIOD_S)
 
 
 class Scenario(NamedTuple):
@@ -241,7 +243,10 @@ class WildfireVecEnv:
 
         if self.config.reward == "obs":
             rewards = observation_rewards(
-                self.maps, self.aircraft.x_m, self.aircraft.y_m, self.aircraft.bank_rad,
+                self.maps,
+                self.aircraft.x_m,
+                self.aircraft.y_m,
+                self.aircraft.bank_rad,
                 self.config.obs_weights,
             )
         else:
@@ -286,7 +291,9 @@ class WildfireVecEnv:
             stale = np.flatnonzero(self._maps_stale)
             burning = np.ascontiguousarray(self.fire.burning)
             distance = self._maps.distance_m
-            distance[stale] = distance_to_fire(burning[stale], self.config.obs_weights.max_distance_m)
+            distance[stale] = distance_to_fire(
+                burning[stale], self.config.obs_weights.max_distance_m
+            )
             self._maps = FireFieldMaps(burning=burning, distance_m=distance, clear_count=None)
         self._maps_stale[:] = False
         return self._maps
@@ -305,7 +312,9 @@ class WildfireVecEnv:
             images = sensor.observe(self.fire.burning, a.x_m, a.y_m, a.heading_rad)[:, :, None]
             images = images.astype(np.float32)
         else:
-            images = ego_images(self.belief.burning, self.belief.age_s(), a.x_m, a.y_m, a.heading_rad)
+            images = ego_images(
+                self.belief.burning, self.belief.age_s(), a.x_m, a.y_m, a.heading_rad
+            )
         return {"image": images, "state": self.pair_states()}
 
 

@@ -8,11 +8,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")  # files only: never open a window
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.colors import ListedColormap  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import ListedColormap
 
-from wildfire_sim.grid import MAP_SIZE_M  # noqa: E402
+from wildfire_sim.grid import MAP_SIZE_M
 
 EXTENT = (0.0, MAP_SIZE_M, 0.0, MAP_SIZE_M)
 # 0 unburnt, 1 burnt out, 2 burning.
@@ -41,11 +41,25 @@ def plot_fire_propagation(
     fig, axes = plt.subplots(len(frames), 2, figsize=(6, 2.9 * len(frames)), squeeze=False)
     for row, (step, burning, affected, fuel) in enumerate(frames):
         ax_fire, ax_fuel = axes[row]
-        ax_fire.imshow(fire_state_image(burning, affected), origin="lower", extent=EXTENT,
-                       cmap=FIRE_COLOURS, vmin=0, vmax=2, interpolation="nearest")
+        ax_fire.imshow(
+            fire_state_image(burning, affected),
+            origin="lower",
+            extent=EXTENT,
+            cmap=FIRE_COLOURS,
+            vmin=0,
+            vmax=2,
+            interpolation="nearest",
+        )
         _map_axes(ax_fire, f"fire locations, t = {step * 2.5:.0f} s")
-        image = ax_fuel.imshow(fuel, origin="lower", extent=EXTENT, cmap="YlGn", vmin=0,
-                               vmax=22, interpolation="nearest")
+        image = ax_fuel.imshow(
+            fuel,
+            origin="lower",
+            extent=EXTENT,
+            cmap="YlGn",
+            vmin=0,
+            vmax=22,
+            interpolation="nearest",
+        )
         _map_axes(ax_fuel, "fuel map")
         fig.colorbar(image, ax=ax_fuel, fraction=0.046)
     fig.suptitle(title, fontsize=10)
@@ -65,14 +79,36 @@ def plot_episode(
     """True fire, shared belief, and flight paths over the fire; ``trajectory`` (T, N, 2)."""
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.6))
     truth = fire_state_image(burning, affected)
-    axes[0].imshow(truth, origin="lower", extent=EXTENT, cmap=FIRE_COLOURS, vmin=0, vmax=2,
-                   interpolation="nearest")
+    axes[0].imshow(
+        truth,
+        origin="lower",
+        extent=EXTENT,
+        cmap=FIRE_COLOURS,
+        vmin=0,
+        vmax=2,
+        interpolation="nearest",
+    )
     _map_axes(axes[0], "true fire (red burning, grey burnt)")
-    axes[1].imshow(believed, origin="lower", extent=EXTENT, cmap="Reds", vmin=0, vmax=1.5,
-                   interpolation="nearest")
+    axes[1].imshow(
+        believed,
+        origin="lower",
+        extent=EXTENT,
+        cmap="Reds",
+        vmin=0,
+        vmax=1.5,
+        interpolation="nearest",
+    )
     _map_axes(axes[1], "shared belief (believed burning)")
-    axes[2].imshow(truth, origin="lower", extent=EXTENT, cmap=FIRE_COLOURS, vmin=0, vmax=2,
-                   interpolation="nearest", alpha=0.6)
+    axes[2].imshow(
+        truth,
+        origin="lower",
+        extent=EXTENT,
+        cmap=FIRE_COLOURS,
+        vmin=0,
+        vmax=2,
+        interpolation="nearest",
+        alpha=0.6,
+    )
     colours = plt.cm.tab10(np.arange(trajectory.shape[1]) % 10)
     for k in range(trajectory.shape[1]):
         xy = trajectory[:, k]

@@ -15,7 +15,7 @@ as well; these are the named ones.
 
 from __future__ import annotations
 
-from enum import Enum
+from enum import StrEnum
 from typing import NamedTuple
 
 import numpy as np
@@ -24,7 +24,7 @@ from wildfire_sim.errors import FireConfigError
 from wildfire_sim.grid import GRID_SIZE
 
 
-class Shape(str, Enum):
+class Shape(StrEnum):
     """Named ignition scenarios."""
 
     CIRCULAR = "circular"
@@ -38,7 +38,9 @@ class Shape(str, Enum):
             return cls(name.lower())
         except ValueError:
             choices = ", ".join(shape.value for shape in cls)
-            raise FireConfigError(f"unknown fire shape {name!r}: expected one of {choices}") from None
+            raise FireConfigError(
+                f"unknown fire shape {name!r}: expected one of {choices}"
+            ) from None
 
 
 class ShapeMasks(NamedTuple):

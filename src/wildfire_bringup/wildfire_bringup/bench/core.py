@@ -14,7 +14,9 @@ from wildfire_sim.fire import BatchedFire
 from wildfire_sim.shapes import shape_masks
 
 
-def bench_fire(steps: int = 80, batch_sizes: tuple[int, ...] = (16, 64, 256, 1024)) -> dict[str, Any]:
+def bench_fire(
+    steps: int = 80, batch_sizes: tuple[int, ...] = (16, 64, 256, 1024)
+) -> dict[str, Any]:
     """Fire steps per second per environment: batched model vs the single-grid reference.
 
     Every run starts from ignition and takes ``steps`` fire steps (80 steps: about the time
@@ -49,8 +51,9 @@ def bench_fire(steps: int = 80, batch_sizes: tuple[int, ...] = (16, 64, 256, 102
 
 
 def _decisions_per_s(observation: str, num_envs: int, decisions: int) -> float:
-    config = EnvConfig(n_aircraft=2, observation=observation, reward=observation,
-                       shapes=("circular", "arc"))
+    config = EnvConfig(
+        n_aircraft=2, observation=observation, reward=observation, shapes=("circular", "arc")
+    )
     env = WildfireVecEnv(config, num_envs)
     env.reset(np.arange(num_envs))
     rng = np.random.default_rng(0)

@@ -32,8 +32,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         help="measure speed (fire, environment, planner, inference, DDS, system)",
         description="Run the benchmarks and report their figures.",
     )
-    parser.add_argument("--only", nargs="+", choices=sorted(SUITES), metavar="SUITE",
-                        help=f"run only these suites ({', '.join(SUITES)})")
+    parser.add_argument(
+        "--only",
+        nargs="+",
+        choices=sorted(SUITES),
+        metavar="SUITE",
+        help=f"run only these suites ({', '.join(SUITES)})",
+    )
     parser.add_argument("--quick", action="store_true", help="shorter runs, noisier figures")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)

@@ -26,19 +26,36 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description="Fly a controller on episodes with seeds S0..S0+K-1 and report the team "
         "score (newly seen burning cells summed over the flight) and belief metrics.",
     )
-    parser.add_argument("--policy", default="rh",
-                        help="rh (receding horizon), random, obs, belief (shipped models) or a "
-                        "TorchScript .pt file")
+    parser.add_argument(
+        "--policy",
+        default="rh",
+        help="rh (receding horizon), random, obs, belief (shipped models) or a "
+        "TorchScript .pt file",
+    )
     parser.add_argument("--aircraft", type=positive_int, default=2, metavar="N")
     parser.add_argument("--shape", default="circular", help="circular, t or arc")
     parser.add_argument("--episodes", type=positive_int, default=20, metavar="K")
-    parser.add_argument("--seed", type=non_negative_int, default=1_000_000, metavar="S0",
-                        help="first episode seed (default: the held-out evaluation range)")
-    parser.add_argument("--duration", type=positive_float, default=400.0, metavar="SEC",
-                        help="longest flight in seconds (episodes also end when the fire "
-                        "reaches the border)")
-    parser.add_argument("--wind", type=wind_vector, default=None, metavar="WX,WY",
-                        help="fixed wind; by default each seed draws it in [-0.8, 0.8]^2")
+    parser.add_argument(
+        "--seed",
+        type=non_negative_int,
+        default=1_000_000,
+        metavar="S0",
+        help="first episode seed (default: the held-out evaluation range)",
+    )
+    parser.add_argument(
+        "--duration",
+        type=positive_float,
+        default=400.0,
+        metavar="SEC",
+        help="longest flight in seconds (episodes also end when the fire reaches the border)",
+    )
+    parser.add_argument(
+        "--wind",
+        type=wind_vector,
+        default=None,
+        metavar="WX,WY",
+        help="fixed wind; by default each seed draws it in [-0.8, 0.8]^2",
+    )
     parser.add_argument("--png", metavar="FILE", help="draw the first episode")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
@@ -58,7 +75,11 @@ def run(args: argparse.Namespace) -> int:
     seeds = list(range(args.seed, args.seed + args.episodes))
     with progress_bar(f"eval {args.policy}", config.max_decisions, enabled=not args.json) as bar:
         summary = evaluate(
-            controller, config, seeds, policy_name=args.policy, record=bool(args.png),
+            controller,
+            config,
+            seeds,
+            policy_name=args.policy,
+            record=bool(args.png),
             progress=lambda done, total: bar(done),
         )
     if args.png:
@@ -67,7 +88,10 @@ def run(args: argparse.Namespace) -> int:
         first = summary.episodes[0]
         assert first.trajectory is not None
         plot_episode(
-            first.final_burning, first.final_affected, first.final_belief, first.trajectory,
+            first.final_burning,
+            first.final_affected,
+            first.final_belief,
+            first.trajectory,
             args.png,
             f"{args.policy}, {args.aircraft} aircraft, {first.shape}, seed {first.seed}, "
             f"wind {first.wind[0]:+.2f},{first.wind[1]:+.2f}: score {first.score}",

@@ -21,8 +21,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "each) over seeds 0..N-1 and report the mean burning and affected cell counts.",
     )
     parser.add_argument("--shape", default="circular", help="circular, t or arc")
-    parser.add_argument("--wind", type=wind_vector, default=(0.0, 0.0), metavar="WX,WY",
-                        help="dimensionless wind, each in [-1, 1]; WX > 0 blows east")
+    parser.add_argument(
+        "--wind",
+        type=wind_vector,
+        default=(0.0, 0.0),
+        metavar="WX,WY",
+        help="dimensionless wind, each in [-1, 1]; WX > 0 blows east",
+    )
     parser.add_argument("--steps", type=non_negative_int, default=60, metavar="K")
     parser.add_argument("--seeds", type=positive_int, default=10, metavar="N")
     parser.add_argument("--png", metavar="FILE", help="draw the fire of seed 0 over time")
@@ -33,8 +38,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     masks = shape_masks(Shape.parse(args.shape))
     fire = BatchedFire(args.seeds)
-    fire.reset(np.arange(args.seeds), np.arange(args.seeds), masks.ignition, masks.fuel,
-               np.asarray(args.wind))
+    fire.reset(
+        np.arange(args.seeds),
+        np.arange(args.seeds),
+        masks.ignition,
+        masks.fuel,
+        np.asarray(args.wind),
+    )
     mean_burning: list[float] = []
     mean_affected: list[float] = []
     snapshot_steps = set(np.linspace(0, args.steps, 4).round().astype(int).tolist())
@@ -42,8 +52,9 @@ def run(args: argparse.Namespace) -> int:
     with progress_bar("fire steps", args.steps, enabled=not args.json) as update:
         for step in range(args.steps + 1):
             if step in snapshot_steps:
-                frames.append((step, fire.burning[0].copy(), fire.affected()[0].copy(),
-                               fire.fuel[0].copy()))
+                frames.append(
+                    (step, fire.burning[0].copy(), fire.affected()[0].copy(), fire.fuel[0].copy())
+                )
             if step == args.steps:
                 break
             fire.step()
@@ -77,9 +88,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         last_burning = mean_burning[-1] if mean_burning else 0.0
         last_affected = mean_affected[-1] if mean_affected else 0.0
-        print(f"{args.shape} fire, {args.seeds} seeds, {args.steps} steps "
-              f"({args.steps * 2.5:.0f} s): {last_burning:.0f} cells burning, "
-              f"{last_affected:.0f} affected, centroid ({centroid[0]:.0f}, {centroid[1]:.0f}) m")
+        print(
+            f"{args.shape} fire, {args.seeds} seeds, {args.steps} steps "
+            f"({args.steps * 2.5:.0f} s): {last_burning:.0f} cells burning, "
+            f"{last_affected:.0f} affected, centroid ({centroid[0]:.0f}, {centroid[1]:.0f}) m"
+        )
         if args.png:
             print(f"wrote {args.png}")
     return 0

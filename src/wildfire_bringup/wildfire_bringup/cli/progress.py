@@ -13,7 +13,9 @@ if TYPE_CHECKING:
 
 
 @contextmanager
-def progress_bar(description: str, total: int, enabled: bool = True) -> Iterator[Callable[[int], None]]:
+def progress_bar(
+    description: str, total: int, enabled: bool = True
+) -> Iterator[Callable[[int], None]]:
     """Yield ``update(completed)``; draws a bar on stderr when it is a terminal."""
     if not enabled or not sys.stderr.isatty():
         yield lambda completed: None
