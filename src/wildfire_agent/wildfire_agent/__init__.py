@@ -1,1 +1,2 @@
-"""Dubins aircraft, sensor model, rewards, policies (TorchScript, receding horizon, random) and the agent node."""
+"""Dubins aircraft, sensor model, rewards, pairwise states and policies (TorchScript,
+receding horizon, random); the agent node."""

@@ -5,10 +5,10 @@
 A Q-network policy file is a TorchScript module ``forward(images, states) -> q`` taking
 ``images`` (B, C, H, W) float32 (one per ownship) and normalised pairwise states (B, K, 5)
 float32 (one per other aircraft) and returning pairwise Q-values (B, K, 2) for the actions
-(-5 deg, +5 deg); the image branch runs once per ownship, however many aircraft it pairs with. It carries a JSON card as the TorchScript extra
-file ``wildfire_policy.json`` with at least ``{"approach": "obs" | "belief"}``. With several
-other aircraft the ownship sums its pairwise Q-values (SPEC 2.5):
-``a = argmax_a sum_j Q(s_j, a)``.
+(-5 deg, +5 deg); the image branch runs once per ownship, however many aircraft it pairs
+with. It carries a JSON card as the TorchScript extra file ``wildfire_policy.json`` with at
+least ``{"approach": "obs" | "belief"}``. With several other aircraft the ownship sums its
+pairwise Q-values (SPEC 2.5): ``a = argmax_a sum_j Q(s_j, a)``.
 """
 
 from __future__ import annotations

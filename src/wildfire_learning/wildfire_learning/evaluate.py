@@ -77,7 +77,10 @@ def evaluate(
     record: bool = False,
     progress: Callable[[int, int], None] | None = None,
 ) -> EvaluationSummary:
-    """Fly ``controller`` on one episode per seed; ``progress(done, total)`` is called per decision."""
+    """Fly ``controller`` on one episode per seed.
+
+    ``progress(done, total)`` is called after every decision with the decisions flown so far.
+    """
     config = replace(config, observation=controller.observation)
     env = WildfireVecEnv(config, len(seeds))
     observations = env.reset(np.asarray(seeds))

@@ -8,7 +8,7 @@ observation is a dict ``{"image": ..., "state": ...}``; ``state()`` is the globa
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
@@ -24,7 +24,7 @@ class WildfireParallelEnv(ParallelEnv):
     ``belief``). ``reset(seed=...)`` fixes the whole episode; without a seed, one is drawn.
     """
 
-    metadata = {"name": "wildfire_surveillance_v0", "render_modes": []}
+    metadata: ClassVar[dict[str, Any]] = {"name": "wildfire_surveillance_v0", "render_modes": []}
 
     def __init__(self, config: EnvConfig | None = None) -> None:
         self.config = (config or EnvConfig()).validate()

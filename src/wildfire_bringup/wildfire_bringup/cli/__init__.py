@@ -36,7 +36,8 @@ def build_parser() -> ArgumentParser:
     """Build the top-level parser with every available sub-command."""
     parser = ArgumentParser(
         prog="wildfire",
-        description="Decentralized wildfire surveillance with autonomous aircraft (ROS 2 + deep RL).",
+        description="Decentralized wildfire surveillance with autonomous aircraft "
+        "(ROS 2 + deep RL).",
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMAND_MODULES:
