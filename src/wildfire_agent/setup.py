@@ -26,6 +26,8 @@ setup(
     description="Dubins aircraft, sensor model, rewards, policies (TorchScript, receding horizon, random) and the agent node.",
     license="Apache-2.0",
     entry_points={
-        "console_scripts": [],
+        "console_scripts": [
+            "agent = wildfire_agent.agent_node:main",
+        ],
     },
 )

@@ -24,6 +24,8 @@ setup(
     description="Shared belief map, visit update, team reward and the belief-aggregator node.",
     license="Apache-2.0",
     entry_points={
-        "console_scripts": [],
+        "console_scripts": [
+            "belief_aggregator = wildfire_belief.belief_aggregator_node:main",
+        ],
     },
 )

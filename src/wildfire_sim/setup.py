@@ -18,6 +18,8 @@ setup(
     description="Stochastic wildfire model (batched) and the fire-simulator node.",
     license="Apache-2.0",
     entry_points={
-        "console_scripts": [],
+        "console_scripts": [
+            "fire_simulator = wildfire_sim.fire_simulator_node:main",
+        ],
     },
 )

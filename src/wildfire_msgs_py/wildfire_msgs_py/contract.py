@@ -21,6 +21,12 @@ topic                      type                                QoS (reliability,
 ``/uavK/deadline``         ``diagnostic_msgs/msg/DiagnosticArray``  reliable, volatile, 10
 =========================  ==================================  ===============================
 
+System topics of the running nodes (lockstep protocol, exact agent inputs, recovery):
+``/wildfire/episode`` (DiagnosticStatus), ``/wildfire/ack`` (Header),
+``/wildfire/belief_age_exact`` (Image 32FC1), ``/uavK/state_stamped`` (JointState),
+``/wildfire/belief_request`` (Header), ``/wildfire/belief_snapshot`` (Float64MultiArray);
+see the entries below and ``docs/ros2_layer.md``.
+
 Maps are latched (transient-local, depth 1) so a node or ``wildfire topic echo`` started late
 still receives the current map, as with a ROS 1 latched topic. Per-aircraft streams keep 10
 messages so a briefly busy subscriber (the belief aggregator) loses no visit in lockstep mode.
@@ -183,6 +189,57 @@ DEADLINE = TopicSpec(
     "10 Hz decision deadline statistics of the agent",
 )
 
+# --- system topics (lockstep protocol, exact inputs of the agents, belief recovery) ----------
+#: Reliable and latched, one message per writer: the last acknowledgement of every reporter.
+ACK_QOS = QosSpec(depth=1, reliable=True, transient_local=True)
+#: Latched with a history, so a late joiner gets the recent per-tick messages it may need.
+LATCHED_HISTORY = QosSpec(depth=10, reliable=True, transient_local=True)
+
+EPISODE = TopicSpec(
+    "/wildfire/episode",
+    "diagnostic_msgs/msg/DiagnosticStatus",
+    LATCHED_HISTORY,
+    False,
+    "episode status from the fire simulator: message waiting|running|terminated|truncated, "
+    "values tick, time_s, seed, shape, wind_x, wind_y, mode (one per lockstep tick)",
+)
+ACK = TopicSpec(
+    "/wildfire/ack",
+    "std_msgs/msg/Header",
+    ACK_QOS,
+    False,
+    "lockstep report: frame_id = reporter (uavK, belief_aggregator, ...; '<name>/ready' at "
+    "start-up), stamp = sim time of the tick the reporter has finished",
+)
+BELIEF_AGE_EXACT = TopicSpec(
+    "/wildfire/belief_age_exact",
+    "sensor_msgs/msg/Image",
+    LATCHED,
+    False,
+    "exact belief age in seconds, 32FC1, row 0 south (the ages belief policies see)",
+)
+STATE_STAMPED = TopicSpec(
+    "state_stamped",
+    "sensor_msgs/msg/JointState",
+    LATCHED_HISTORY,
+    True,
+    "exact state with its time: name [x_m, y_m, heading_rad, bank_rad], position float64",
+)
+BELIEF_REQUEST = TopicSpec(
+    "/wildfire/belief_request",
+    "std_msgs/msg/Header",
+    ACK_QOS,
+    False,
+    "a (re)started belief aggregator asks the agents for their copy of the shared belief",
+)
+BELIEF_SNAPSHOT = TopicSpec(
+    "/wildfire/belief_snapshot",
+    "std_msgs/msg/Float64MultiArray",
+    LATCHED_HISTORY,
+    False,
+    "an agent's copy of the shared belief: [time_s, score, believed (100x100), age_s (100x100)]",
+)
+
 #: Every topic of the contract, in documentation order.
 TOPICS: tuple[TopicSpec, ...] = (
     CLOCK,
@@ -196,6 +253,15 @@ TOPICS: tuple[TopicSpec, ...] = (
     VISIT,
     STATE,
     DEADLINE,
+)
+#: Topics of the running system beyond the data contract (lockstep, recovery, exact inputs).
+SYSTEM_TOPICS: tuple[TopicSpec, ...] = (
+    EPISODE,
+    ACK,
+    BELIEF_AGE_EXACT,
+    STATE_STAMPED,
+    BELIEF_REQUEST,
+    BELIEF_SNAPSHOT,
 )
 
 _AIRCRAFT_NAMESPACE = re.compile(rf"^/{AIRCRAFT_PREFIX}(0|[1-9][0-9]*)$")
@@ -238,34 +304,44 @@ def topics_for(num_aircraft: int) -> Iterator[tuple[str, TopicSpec]]:
 
 def spec_for(topic: str) -> TopicSpec | None:
     """The contract entry of an absolute topic name (``/uav3/odom`` -> ODOM), or None."""
-    for spec in TOPICS:
+    every = TOPICS + SYSTEM_TOPICS
+    for spec in every:
         if not spec.per_aircraft and spec.name == topic:
             return spec
     k = aircraft_index(topic)
     if k is not None:
         suffix = topic[len(aircraft_namespace(k)) + 1 :]
-        for spec in TOPICS:
+        for spec in every:
             if spec.per_aircraft and spec.name == suffix:
                 return spec
     return None
 
 
 __all__ = [
+    "ACK",
+    "ACK_QOS",
     "AIRCRAFT_PREFIX",
     "BANK_CMD",
     "BELIEF",
     "BELIEF_AGE",
+    "BELIEF_AGE_EXACT",
+    "BELIEF_REQUEST",
+    "BELIEF_SNAPSHOT",
     "CLOCK",
     "CLOCK_QOS",
     "DEADLINE",
+    "EPISODE",
     "FIRE_MAP",
     "FUEL_MAP",
     "LATCHED",
+    "LATCHED_HISTORY",
     "MAP_FRAME",
     "ODOM",
     "SCORE",
     "STATE",
+    "STATE_STAMPED",
     "STREAM",
+    "SYSTEM_TOPICS",
     "TOPICS",
     "VISIT",
     "QosSpec",

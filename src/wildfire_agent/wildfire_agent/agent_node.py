@@ -1,0 +1,404 @@
+"""Agent node: one aircraft (namespace ``/uavK``), Dubins dynamics and its policy at 10 Hz.
+
+Subscribes to the truth (``/wildfire/fire_map``), the episode status, every other aircraft's
+``state_stamped``, and the shared belief with its exact ages; publishes ``odom``,
+``bank_cmd``, ``state``, ``state_stamped``, ``visit`` and ``deadline`` (decision-time
+statistics) in its namespace. The decision itself is :class:`wildfire_agent.pilot.Pilot`.
+
+Lockstep (``mode: lockstep``): message driven. For tick ``k`` announced on
+``/wildfire/episode`` the node waits for the fire map of that tick's fire step, then
+publishes its visit window at ``s_k`` (from tick 1), and unless the episode has ended waits
+for the other aircraft's ``s_k`` (and, for a belief policy, the belief of tick ``k``),
+decides ``a_k``, flies to ``s_{k+1}``, publishes it stamped ``(k + 1) * 0.1 s`` and
+acknowledges tick ``k`` on ``/wildfire/ack``. Exactly the environment's order.
+
+Real time (``mode: realtime``): a 10 Hz wall timer decides from the latest inputs, flies and
+visits; a decision that ends later than its 100 ms slot counts as a missed deadline.
+
+Every agent also keeps the last shared belief it saw and sends it on
+``/wildfire/belief_snapshot`` when a restarted belief aggregator asks for it.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import Any
+
+import numpy as np
+
+from wildfire_agent import dynamics
+from wildfire_agent.dynamics import AircraftState
+from wildfire_agent.errors import AgentConfigError
+from wildfire_agent.pilot import Pilot
+from wildfire_agent.receding_horizon import RecedingHorizonConfig
+from wildfire_belief.visits import visit_windows, window_values
+from wildfire_msgs_py import contract
+from wildfire_msgs_py.codecs import (
+    VisitWindow,
+    bank_cmd_to_msg,
+    belief_from_msg,
+    deadline_to_msg,
+    fire_grid_from_msg,
+    pose_to_odometry,
+    score_from_msg,
+    state_to_msg,
+    time_from_msg,
+    visit_to_msg,
+)
+from wildfire_msgs_py.node_support import ParamSpec, declare_parameters, run_node
+from wildfire_msgs_py.runtime import Node, get_message
+from wildfire_msgs_py.system_codecs import (
+    READY_SUFFIX,
+    BeliefSnapshot,
+    ack_to_msg,
+    age_image_from_msg,
+    episode_from_msg,
+    snapshot_to_msg,
+    stamped_state_from_msg,
+    stamped_state_to_msg,
+)
+from wildfire_sim.episode import DECISION_PERIOD_NS, fire_step_tick
+
+PERIOD_S = DECISION_PERIOD_NS / 1e9
+PARAMETERS = (
+    ParamSpec("aircraft", 0, "index k of this aircraft (namespace /uavK)", 0, 63),
+    ParamSpec("n_aircraft", 2, "aircraft in the team", 1, 64),
+    ParamSpec("policy", "rh", "rh, random, or the path of a TorchScript policy (.pt)"),
+    ParamSpec("seed", 0, "episode seed (the aircraft's random stream)", 0, 2**31 - 1),
+    ParamSpec("start_x", 500.0, "start position east, m", -10_000.0, 11_000.0),
+    ParamSpec("start_y", 500.0, "start position north, m", -10_000.0, 11_000.0),
+    ParamSpec("start_heading", 0.0, "start heading, rad counter-clockwise from east", -7.0, 7.0),
+    ParamSpec("start_bank_steps", 0, "start bank in 5 degree steps", -10, 10),
+    ParamSpec(
+        "mode", "lockstep", "lockstep (sim time) or realtime", choices=("lockstep", "realtime")
+    ),
+    ParamSpec("rh_horizon", 60, "receding horizon: decisions planned ahead", 2, 400),
+    ParamSpec("rh_replan_every", 10, "receding horizon: decisions flown per plan", 1, 399),
+    ParamSpec("rh_restarts", 4, "receding horizon: random restarts per plan", 1, 64),
+    ParamSpec("torch_threads", 1, "CPU threads of the Q-network", 1, 64),
+)
+
+
+def _state_vector(state: AircraftState) -> np.ndarray:
+    return np.array(
+        [state.x_m[0], state.y_m[0], state.heading_rad[0], state.bank_rad[0]], dtype=np.float64
+    )
+
+
+class DeadlineStats:
+    """Decision-time statistics of the 10 Hz loop."""
+
+    def __init__(self) -> None:
+        self.decisions = 0
+        self.missed = 0
+        self.compute_s_total = 0.0
+        self.compute_s_max = 0.0
+        self.late_s_max = 0.0
+
+    def add(self, compute_s: float, late_s: float) -> None:
+        self.decisions += 1
+        self.compute_s_total += compute_s
+        self.compute_s_max = max(self.compute_s_max, compute_s)
+        self.late_s_max = max(self.late_s_max, late_s)
+        if late_s + compute_s > PERIOD_S:
+            self.missed += 1
+
+    def as_dict(self) -> dict[str, float | int]:
+        return {
+            "decisions": self.decisions,
+            "missed": self.missed,
+            "missed_fraction": self.missed / max(self.decisions, 1),
+            "compute_ms_mean": 1e3 * self.compute_s_total / max(self.decisions, 1),
+            "compute_ms_max": 1e3 * self.compute_s_max,
+            "late_ms_max": 1e3 * self.late_s_max,
+        }
+
+
+class AgentNode(Node):
+    """One aircraft (see the module docstring)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("agent", **kwargs)
+        p = declare_parameters(self, PARAMETERS)
+        self.k: int = p["aircraft"]
+        self.n: int = p["n_aircraft"]
+        self.mode: str = p["mode"]
+        self.name_tag = f"uav{self.k}"
+        if self.k >= self.n:
+            raise AgentConfigError(f"aircraft {self.k}: expected 0..{self.n - 1} (n_aircraft)")
+        if p["policy"].endswith(".pt"):
+            import torch
+
+            torch.set_num_threads(p["torch_threads"])
+        self.pilot = Pilot(
+            p["policy"],
+            self.k,
+            self.n,
+            p["seed"],
+            RecedingHorizonConfig(p["rh_horizon"], p["rh_replan_every"], p["rh_restarts"]),
+        )
+        self.state = AircraftState(
+            x_m=np.array([p["start_x"]]),
+            y_m=np.array([p["start_y"]]),
+            heading_rad=np.array([p["start_heading"]]),
+            bank_steps=np.array([p["start_bank_steps"]], dtype=np.int64),
+        )
+        self.peer_states: dict[int, dict[int, np.ndarray]] = {
+            j: {} for j in range(self.n) if j != self.k
+        }
+        self.fire: dict[int, np.ndarray] = {}
+        self.belief: dict[int, np.ndarray] = {}
+        self.ages: dict[int, np.ndarray] = {}
+        self.score = 0.0
+        self.status_tick = -1
+        self.final_tick: int | None = None
+        self.running = False
+        self.visited_tick = 0  # tick 0 has no visit: the belief starts from the ignition
+        self.decided_tick = -1
+        self.ready_sent = False
+        self.answered_requests: set[int] = set()
+        self.stats = DeadlineStats()
+        self.slot_start: float | None = None
+
+        def publisher(spec: contract.TopicSpec, topic: str | None = None) -> Any:
+            return self.create_publisher(
+                get_message(spec.type), topic or spec.resolve(self.k), spec.qos.profile()
+            )
+
+        self.odom_pub = publisher(contract.ODOM)
+        self.bank_pub = publisher(contract.BANK_CMD)
+        self.state_pub = publisher(contract.STATE)
+        self.stamped_pub = publisher(contract.STATE_STAMPED)
+        self.visit_pub = publisher(contract.VISIT)
+        self.deadline_pub = publisher(contract.DEADLINE)
+        self.ack_pub = publisher(contract.ACK)
+        self.snapshot_pub = publisher(contract.BELIEF_SNAPSHOT)
+
+        def subscribe(spec: contract.TopicSpec, callback: Any, topic: str | None = None) -> None:
+            self.create_subscription(
+                get_message(spec.type), topic or spec.name, callback, spec.qos.profile()
+            )
+
+        subscribe(contract.FIRE_MAP, self.fire_map_callback)
+        subscribe(contract.EPISODE, self.episode_callback)
+        subscribe(contract.BELIEF, self.belief_callback)
+        subscribe(contract.BELIEF_AGE_EXACT, self.belief_age_callback)
+        subscribe(contract.SCORE, self.score_callback)
+        subscribe(contract.BELIEF_REQUEST, self.belief_request_callback)
+        for j in self.peer_states:
+            subscribe(
+                contract.STATE_STAMPED,
+                lambda msg, j=j: self.peer_state_callback(j, msg),
+                contract.STATE_STAMPED.resolve(j),
+            )
+        self.publish_state(0)
+        self.startup_timer = self.create_timer(0.1, self.startup_timer_callback)
+        self.decision_timer = (
+            self.create_timer(PERIOD_S, self.decision_timer_callback)
+            if self.mode == "realtime"
+            else None
+        )
+        self.get_logger().info(f"{self.name_tag}: policy {p['policy']} ({self.mode})")
+
+    # --- publishing ---------------------------------------------------------------------------
+
+    def now_stamp(self, tick: int) -> int:
+        """Stamp of tick ``tick`` in lockstep, the node clock in real time."""
+        if self.mode == "lockstep":
+            return tick * DECISION_PERIOD_NS
+        return self.get_clock().now().nanoseconds
+
+    def publish_state(self, tick: int) -> None:
+        stamp = self.now_stamp(tick)
+        vector = _state_vector(self.state)
+        self.stamped_pub.publish(stamped_state_to_msg(vector, stamp))
+        self.state_pub.publish(state_to_msg(vector))
+        self.odom_pub.publish(pose_to_odometry(vector, self.k, stamp))
+
+    def publish_visit(self, tick: int, burning: np.ndarray) -> None:
+        windows = visit_windows(self.state.x_m[None], self.state.y_m[None])
+        truth = window_values(burning[None], windows)[0, 0].astype(bool)
+        window = VisitWindow(
+            int(windows.row0[0, 0]), int(windows.col0[0, 0]), windows.visited[0, 0], truth
+        )
+        self.visit_pub.publish(visit_to_msg(window, self.now_stamp(tick)))
+
+    def ack(self, tick: int) -> None:
+        self.ack_pub.publish(ack_to_msg(self.name_tag, tick * DECISION_PERIOD_NS))
+
+    # --- callbacks ----------------------------------------------------------------------------
+
+    def startup_timer_callback(self) -> None:
+        """Say ready once the aggregator listens to our visits (their QoS is volatile)."""
+        if self.ready_sent:
+            return
+        if self.count_subscribers(contract.VISIT.resolve(self.k)) < 1:
+            return
+        self.ready_sent = True
+        self.ack_pub.publish(ack_to_msg(self.name_tag + READY_SUFFIX, 0))
+        self.destroy_timer(self.startup_timer)
+
+    def fire_map_callback(self, msg: Any) -> None:
+        stamp = time_from_msg(msg.header.stamp)
+        self.fire[stamp] = fire_grid_from_msg(msg)
+        # Keep the maps a pending tick may still need.
+        for old in [s for s in self.fire if s < stamp - 25 * DECISION_PERIOD_NS]:
+            del self.fire[old]
+        self.advance()
+
+    def episode_callback(self, msg: Any) -> None:
+        status = episode_from_msg(msg)
+        if status.phase == "waiting":
+            return
+        self.running = True
+        self.status_tick = max(self.status_tick, status.tick)
+        if status.final:
+            self.final_tick = status.tick
+        self.advance()
+
+    def peer_state_callback(self, j: int, msg: Any) -> None:
+        stamp, vector = stamped_state_from_msg(msg)
+        states = self.peer_states[j]
+        states[stamp] = vector
+        if self.mode == "realtime":
+            states.clear()
+            states[stamp] = vector
+        self.advance()
+
+    def belief_callback(self, msg: Any) -> None:
+        self.belief[time_from_msg(msg.header.stamp)] = belief_from_msg(msg)
+        self._trim(self.belief)
+        self.advance()
+
+    def belief_age_callback(self, msg: Any) -> None:
+        self.ages[time_from_msg(msg.header.stamp)] = age_image_from_msg(msg)
+        self._trim(self.ages)
+        self.advance()
+
+    def score_callback(self, msg: Any) -> None:
+        self.score = score_from_msg(msg)
+
+    def belief_request_callback(self, msg: Any) -> None:
+        """Send our copy of the shared belief to a (re)started aggregator, once per request."""
+        request = time_from_msg(msg.stamp)
+        common = sorted(set(self.belief) & set(self.ages))
+        if request in self.answered_requests or not common:
+            return
+        self.answered_requests.add(request)
+        stamp = common[-1]
+        snapshot = BeliefSnapshot(stamp / 1e9, self.score, self.belief[stamp], self.ages[stamp])
+        self.snapshot_pub.publish(snapshot_to_msg(snapshot))
+
+    def decision_timer_callback(self) -> None:
+        """Real time: one decision per 100 ms slot from the latest inputs."""
+        if not self.running or self.final_tick is not None or not self.fire:
+            return
+        start = time.monotonic()
+        if self.slot_start is None:
+            self.slot_start = start
+        late = max(0.0, start - self.slot_start)
+        team = self.team_state(latest=True)
+        belief, ages = self.latest_belief()
+        if team is None or (self.pilot.needs_belief and belief is None):
+            return
+        burning = self.fire[max(self.fire)]
+        action = self.pilot.decide(team, burning, max(self.fire), belief, ages)
+        self.fly(action, tick=0)
+        self.publish_visit(0, burning)
+        self.stats.add(time.monotonic() - start, late)
+        self.publish_deadline(0)
+        # Slots follow the wall clock: a late decision does not shift the next slot.
+        self.slot_start += PERIOD_S * max(1, int((time.monotonic() - self.slot_start) // PERIOD_S))
+
+    # --- lockstep -----------------------------------------------------------------------------
+
+    def advance(self) -> None:
+        """Lockstep: do whatever the inputs received so far allow for the announced ticks."""
+        if self.mode != "lockstep" or not self.running:
+            return
+        while True:
+            tick = self.decided_tick + 1
+            if tick > self.status_tick:
+                return
+            fire_stamp = fire_step_tick(tick) * DECISION_PERIOD_NS
+            burning = self.fire.get(fire_stamp)
+            if burning is None:
+                return
+            if self.visited_tick < tick:
+                self.publish_visit(tick, burning)
+                self.visited_tick = tick
+            if self.final_tick is not None and tick >= self.final_tick:
+                self.decided_tick = tick
+                self.ack(tick)
+                return
+            team = self.team_state(stamp=tick * DECISION_PERIOD_NS)
+            if team is None:
+                return
+            belief = ages = None
+            if self.pilot.needs_belief:
+                stamp = tick * DECISION_PERIOD_NS
+                belief, ages = self.belief.get(stamp), self.ages.get(stamp)
+                if belief is None or ages is None:
+                    return
+            start = time.monotonic()
+            action = self.pilot.decide(team, burning, fire_stamp, belief, ages)
+            self.fly(action, tick + 1)
+            self.stats.add(time.monotonic() - start, 0.0)
+            self.publish_deadline(tick + 1)
+            for states in self.peer_states.values():
+                states.pop(tick * DECISION_PERIOD_NS, None)
+            self.decided_tick = tick
+            self.ack(tick)
+
+    def team_state(self, stamp: int | None = None, latest: bool = False) -> AircraftState | None:
+        """Poses of the whole team (fields (n,)), own included; None while one is missing."""
+        rows = []
+        for j in range(self.n):
+            if j == self.k:
+                rows.append(_state_vector(self.state))
+                continue
+            states = self.peer_states[j]
+            if not states:
+                return None
+            vector = states[max(states)] if latest else states.get(stamp)  # type: ignore[arg-type]
+            if vector is None:
+                return None
+            rows.append(vector)
+        team = np.stack(rows)
+        bank_steps = np.rint(team[:, 3] / dynamics.BANK_STEP_RAD).astype(np.int64)
+        # Own fields come from our own state object (not via radians) to stay bit-exact.
+        x, y, heading = team[:, 0].copy(), team[:, 1].copy(), team[:, 2].copy()
+        bank_steps[self.k] = self.state.bank_steps[0]
+        return AircraftState(x, y, heading, bank_steps)
+
+    def latest_belief(self) -> tuple[np.ndarray | None, np.ndarray | None]:
+        common = set(self.belief) & set(self.ages)
+        if not common:
+            return None, None
+        stamp = max(common)
+        return self.belief[stamp], self.ages[stamp]
+
+    def fly(self, action: int, tick: int) -> None:
+        self.state = dynamics.step(self.state, np.array([action], dtype=np.int64))
+        self.bank_pub.publish(bank_cmd_to_msg(float(self.state.bank_rad[0])))
+        self.publish_state(tick)
+
+    def publish_deadline(self, tick: int) -> None:
+        stats = self.stats.as_dict()
+        level = "WARN" if stats["missed"] else "OK"
+        self.deadline_pub.publish(deadline_to_msg(stats, self.k, self.now_stamp(tick), level=level))
+
+    @staticmethod
+    def _trim(history: dict[int, Any], keep: int = 4) -> None:
+        for old in sorted(history)[:-keep]:
+            del history[old]
+
+
+def main(args: list[str] | None = None) -> None:
+    """``ros2 run wildfire_agent agent --ros-args -r __ns:=/uav0 -p aircraft:=0``."""
+    sys.exit(run_node(AgentNode, "agent", args, (AgentConfigError, ValueError)))
+
+
+if __name__ == "__main__":
+    main()

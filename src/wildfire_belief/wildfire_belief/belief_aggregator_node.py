@@ -1,0 +1,227 @@
+"""Belief-aggregator node: merges every aircraft's visits into the shared belief.
+
+Subscribes to ``/uavK/visit`` of every aircraft and the episode status; publishes
+``/wildfire/belief``, ``/wildfire/belief_age`` (display, 0..100), ``/wildfire/belief_age_exact``
+(float32 seconds, what belief policies see) and the cumulative ``/wildfire/score``, all
+latched. The merge is :class:`wildfire_belief.aggregator.BeliefAggregator`; the belief starts
+as the ignition seed (``wildfire_sim.episode.initial_fire`` of the episode seed and shape).
+
+* Lockstep: for tick ``k >= 1`` it waits for the visit stamped ``k * 0.1 s`` of every
+  aircraft, merges them (one ``tick`` of the belief clock), publishes the belief stamped with
+  the tick and acknowledges the tick on ``/wildfire/ack``.
+* Real time: a 10 Hz wall timer merges whatever visits arrived since the last tick.
+
+Restart: when it starts while an episode is already running (the latched status has
+``tick > 0``) it asks the agents for their copy of the shared belief on
+``/wildfire/belief_request`` and continues from the newest ``/wildfire/belief_snapshot``
+(within ``recover_timeout_s``; otherwise it warns and starts from the ignition seed).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import Any
+
+from wildfire_belief.aggregator import BeliefAggregator
+from wildfire_msgs_py import contract
+from wildfire_msgs_py.codecs import (
+    VisitWindow,
+    belief_age_to_msg,
+    belief_to_msg,
+    score_to_msg,
+    time_from_msg,
+    visit_from_msg,
+)
+from wildfire_msgs_py.node_support import ParamSpec, declare_parameters, run_node
+from wildfire_msgs_py.runtime import Node, get_message
+from wildfire_msgs_py.system_codecs import (
+    READY_SUFFIX,
+    ack_to_msg,
+    age_image_to_msg,
+    episode_from_msg,
+    snapshot_from_msg,
+)
+from wildfire_sim.episode import DECISION_PERIOD_NS, initial_fire
+from wildfire_sim.errors import FireConfigError
+from wildfire_sim.shapes import Shape
+
+NAME = "belief_aggregator"
+PARAMETERS = (
+    ParamSpec("n_aircraft", 2, "aircraft uav0..uav{n-1} whose visits are merged", 1, 64),
+    ParamSpec("seed", 0, "episode seed (fixes the ignition seed's fuel)", 0, 2**31 - 1),
+    ParamSpec("shape", "circular", "ignition shape", choices=tuple(s.value for s in Shape)),
+    ParamSpec(
+        "mode", "lockstep", "lockstep (sim time) or realtime", choices=("lockstep", "realtime")
+    ),
+    ParamSpec(
+        "recover_timeout_s", 3.0, "how long a restarted aggregator waits for a copy", 0.0, 60.0
+    ),
+)
+
+
+class BeliefAggregatorNode(Node):
+    """Shared belief, its ages and the team score (see the module docstring)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(NAME, **kwargs)
+        p = declare_parameters(self, PARAMETERS)
+        self.n: int = p["n_aircraft"]
+        self.mode: str = p["mode"]
+        self.recover_timeout_s: float = p["recover_timeout_s"]
+        ignition = initial_fire(p["seed"], p["shape"]).burning[0]
+        self.aggregator = BeliefAggregator(ignition)
+        self.pending: dict[int, dict[int, VisitWindow]] = {}  # stamp -> aircraft -> window
+        self.realtime_queue: list[VisitWindow] = []
+        self.status_tick = -1
+        self.final = False
+        self.ready_sent = False
+        self.recovering_since: float | None = None
+        self.snapshots: list[Any] = []
+        self.started = False
+
+        def publisher(spec: contract.TopicSpec) -> Any:
+            return self.create_publisher(get_message(spec.type), spec.name, spec.qos.profile())
+
+        self.belief_pub = publisher(contract.BELIEF)
+        self.age_pub = publisher(contract.BELIEF_AGE)
+        self.age_exact_pub = publisher(contract.BELIEF_AGE_EXACT)
+        self.score_pub = publisher(contract.SCORE)
+        self.ack_pub = publisher(contract.ACK)
+        self.request_pub = publisher(contract.BELIEF_REQUEST)
+        for k in range(self.n):
+            self.create_subscription(
+                get_message(contract.VISIT.type),
+                contract.VISIT.resolve(k),
+                lambda msg, k=k: self.visit_callback(k, msg),
+                contract.QosSpec(depth=100).profile(),
+            )
+        self.create_subscription(
+            get_message(contract.EPISODE.type),
+            contract.EPISODE.name,
+            self.episode_callback,
+            contract.EPISODE.qos.profile(),
+        )
+        # Many agents answer on one keyless topic: keep them all.
+        self.create_subscription(
+            get_message(contract.BELIEF_SNAPSHOT.type),
+            contract.BELIEF_SNAPSHOT.name,
+            self.snapshot_callback,
+            contract.QosSpec(depth=100, transient_local=True).profile(),
+        )
+        self.startup_timer = self.create_timer(0.1, self.startup_timer_callback)
+        self.merge_timer = (
+            self.create_timer(DECISION_PERIOD_NS / 1e9, self.merge_timer_callback)
+            if self.mode == "realtime"
+            else None
+        )
+
+    # --- publishing ---------------------------------------------------------------------------
+
+    def publish_belief(self, stamp: int) -> None:
+        ages = self.aggregator.age_s()
+        self.belief_pub.publish(belief_to_msg(self.aggregator.burning, stamp))
+        self.age_pub.publish(belief_age_to_msg(ages, stamp))
+        self.age_exact_pub.publish(age_image_to_msg(ages, stamp))
+        self.score_pub.publish(score_to_msg(float(self.aggregator.score)))
+
+    def stamp(self, tick: int) -> int:
+        if self.mode == "lockstep":
+            return tick * DECISION_PERIOD_NS
+        return self.get_clock().now().nanoseconds
+
+    # --- callbacks ----------------------------------------------------------------------------
+
+    def startup_timer_callback(self) -> None:
+        """Start once every agent's visit publisher is matched (visits are volatile)."""
+        if self.started:
+            return
+        if self.recovering_since is not None:
+            waited = time.monotonic() - self.recovering_since
+            if not self.snapshots and waited < self.recover_timeout_s:
+                return
+            self.finish_recovery()
+        elif any(self.count_publishers(contract.VISIT.resolve(k)) < 1 for k in range(self.n)):
+            return
+        self.started = True
+        if not self.ready_sent:
+            self.publish_belief(self.stamp(0))
+            self.ready_sent = True
+            self.ack_pub.publish(ack_to_msg(NAME + READY_SUFFIX, 0))
+        self.destroy_timer(self.startup_timer)
+        self.merge_lockstep()
+
+    def episode_callback(self, msg: Any) -> None:
+        status = episode_from_msg(msg)
+        if status.phase == "waiting":
+            return
+        if not self.started and status.tick > 0 and self.recovering_since is None:
+            self.begin_recovery()
+        self.status_tick = max(self.status_tick, status.tick)
+        self.final = self.final or status.final
+        if self.mode == "lockstep" and self.started and status.tick == 0:
+            self.ack_pub.publish(ack_to_msg(NAME, 0))
+        self.merge_lockstep()
+
+    def visit_callback(self, k: int, msg: Any) -> None:
+        window = visit_from_msg(msg)
+        if self.mode == "realtime":
+            self.realtime_queue.append(window)
+            return
+        self.pending.setdefault(time_from_msg(msg.header.stamp), {})[k] = window
+        self.merge_lockstep()
+
+    def snapshot_callback(self, msg: Any) -> None:
+        if self.recovering_since is not None and not self.started:
+            self.snapshots.append(snapshot_from_msg(msg))
+
+    def merge_timer_callback(self) -> None:
+        """Real time: one belief tick per 100 ms with the visits received meanwhile."""
+        if not self.started:
+            return
+        windows, self.realtime_queue = self.realtime_queue, []
+        self.aggregator.merge(windows)
+        self.publish_belief(self.stamp(0))
+
+    # --- lockstep and recovery ----------------------------------------------------------------
+
+    def merge_lockstep(self) -> None:
+        """Merge every tick whose visits from all aircraft are in, in order."""
+        if self.mode != "lockstep" or not self.started:
+            return
+        while True:
+            tick = self.aggregator.ticks + 1
+            stamp = tick * DECISION_PERIOD_NS
+            windows = self.pending.get(stamp, {})
+            if tick > self.status_tick or len(windows) < self.n:
+                return
+            del self.pending[stamp]
+            self.aggregator.merge([windows[k] for k in range(self.n)])
+            self.publish_belief(stamp)
+            self.ack_pub.publish(ack_to_msg(NAME, stamp))
+
+    def begin_recovery(self) -> None:
+        self.get_logger().warning("episode already running: asking the agents for the belief")
+        self.recovering_since = time.monotonic()
+        self.request_pub.publish(ack_to_msg(NAME, time.time_ns()))
+
+    def finish_recovery(self) -> None:
+        if not self.snapshots:
+            self.get_logger().warning("no belief copy received: starting from the ignition seed")
+            return
+        newest = max(self.snapshots, key=lambda s: s.time_s)
+        self.aggregator.restore(newest.time_s, newest.score, newest.believed, newest.age_s)
+        self.get_logger().info(
+            f"recovered the shared belief of t = {newest.time_s:.1f} s, score {newest.score:.0f}"
+        )
+        self.publish_belief(self.stamp(0))
+        self.ready_sent = True
+
+
+def main(args: list[str] | None = None) -> None:
+    """``ros2 run wildfire_belief belief_aggregator``."""
+    sys.exit(run_node(BeliefAggregatorNode, NAME, args, (FireConfigError, ValueError)))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,200 @@
+"""Fire-simulator node: owns the true fire, publishes it, and paces the episode.
+
+Publishes ``/wildfire/fire_map`` and ``/wildfire/fuel_map`` (latched) at the start and after
+every fire step, and ``/wildfire/episode`` (phase, tick, scenario). Two modes:
+
+* ``lockstep`` — drives ``/clock`` (tick ``k`` at ``k * 0.1`` s of sim time). It waits for
+  ``<name>/ready`` on ``/wildfire/ack`` from every expected reporter (each agent ``uavK``,
+  ``belief_aggregator`` and any ``extra_reporters``), then announces tick 0; tick ``k + 1``
+  (with its fire step when due and its end check) is announced only once every reporter has
+  acknowledged tick ``k``. The episode status of a tick is published before its clock.
+* ``realtime`` — a 10 Hz wall-clock timer counts decisions; the fire steps every 2.5 s; the
+  status is published at every fire step and at the end.
+
+At the end the phase is ``terminated`` (fire at the border) or ``truncated`` (duration);
+once every reporter has finished the last tick the status carries ``complete: true``.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+from wildfire_msgs_py import contract
+from wildfire_msgs_py.codecs import clock_to_msg, fire_grid_to_msg, fuel_grid_to_msg
+from wildfire_msgs_py.node_support import ParamSpec, declare_parameters, run_node
+from wildfire_msgs_py.runtime import Node, get_message
+from wildfire_msgs_py.system_codecs import (
+    READY_SUFFIX,
+    ack_from_msg,
+    episode_to_msg,
+)
+from wildfire_sim.episode import DECISION_PERIOD_NS, FireEpisode
+from wildfire_sim.errors import FireConfigError
+from wildfire_sim.shapes import Shape
+
+MODES = ("lockstep", "realtime")
+PARAMETERS = (
+    ParamSpec("seed", 0, "episode seed (fuel and fire randomness)", 0, 2**31 - 1),
+    ParamSpec("shape", "circular", "ignition shape", choices=tuple(s.value for s in Shape)),
+    ParamSpec("wind_x", 0.0, "dimensionless wind towards east", -1.0, 1.0),
+    ParamSpec("wind_y", 0.0, "dimensionless wind towards north", -1.0, 1.0),
+    ParamSpec("duration_s", 400.0, "flight time limit in seconds", 0.1, 100_000.0),
+    ParamSpec("preburn_steps", 30, "fire steps before the aircraft start", 0, 1000),
+    ParamSpec("border_cells", 6, "the episode ends when fire is this close to the edge", 0, 49),
+    ParamSpec("mode", "lockstep", "lockstep (sim time, /clock) or realtime", choices=MODES),
+    ParamSpec("n_aircraft", 2, "aircraft uav0..uav{n-1} that report in lockstep", 1, 64),
+    ParamSpec("extra_reporters", "", "comma-separated further lockstep reporters"),
+)
+
+
+class FireSimulatorNode(Node):
+    """Publishes the truth grids and runs the episode clock (see the module docstring)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("fire_simulator", **kwargs)
+        p = declare_parameters(self, PARAMETERS)
+        self.mode: str = p["mode"]
+        self.reporters: set[str] = {f"uav{k}" for k in range(p["n_aircraft"])}
+        self.reporters.add("belief_aggregator")
+        self.reporters |= {r.strip() for r in p["extra_reporters"].split(",") if r.strip()}
+        self.scenario: dict[str, Any] = {
+            "seed": p["seed"],
+            "shape": p["shape"],
+            "wind_x": p["wind_x"],
+            "wind_y": p["wind_y"],
+            "mode": self.mode,
+            "n_aircraft": p["n_aircraft"],
+        }
+        self.episode = FireEpisode(
+            p["seed"],
+            p["shape"],
+            (p["wind_x"], p["wind_y"]),
+            max_decisions=round(p["duration_s"] * 10),
+            preburn_steps=p["preburn_steps"],
+            border_cells=p["border_cells"],
+        )
+        self.ready: set[str] = set()
+        self.acked: dict[str, int] = {}
+        self.started = False
+        self.complete = False
+
+        self.fire_pub = self.create_publisher(
+            get_message(contract.FIRE_MAP.type),
+            contract.FIRE_MAP.name,
+            contract.FIRE_MAP.qos.profile(),
+        )
+        self.fuel_pub = self.create_publisher(
+            get_message(contract.FUEL_MAP.type),
+            contract.FUEL_MAP.name,
+            contract.FUEL_MAP.qos.profile(),
+        )
+        self.episode_pub = self.create_publisher(
+            get_message(contract.EPISODE.type),
+            contract.EPISODE.name,
+            contract.EPISODE.qos.profile(),
+        )
+        self.clock_pub = self.create_publisher(
+            get_message(contract.CLOCK.type), contract.CLOCK.name, contract.CLOCK.qos.profile()
+        )
+        # Header is keyless: every reporter writes the same instance, so the reader keeps a
+        # deep history or acknowledgements of different reporters would replace each other.
+        self.create_subscription(
+            get_message(contract.ACK.type),
+            contract.ACK.name,
+            self.ack_callback,
+            contract.QosSpec(depth=1000, transient_local=True).profile(),
+        )
+        self.realtime_timer = (
+            self.create_timer(DECISION_PERIOD_NS / 1e9, self.realtime_timer_callback)
+            if self.mode == "realtime"
+            else None
+        )
+        self.publish_maps()
+        self.publish_status("waiting", tick=-1)
+        self.get_logger().info(
+            f"{self.mode} episode seed {p['seed']} shape {p['shape']} wind "
+            f"({p['wind_x']:+.3f}, {p['wind_y']:+.3f}); waiting for {sorted(self.reporters)}"
+        )
+
+    # --- publishing ---------------------------------------------------------------------------
+
+    def stamp_ns(self) -> int:
+        """Sim time of the current tick."""
+        return self.episode.decisions * DECISION_PERIOD_NS
+
+    def publish_maps(self) -> None:
+        stamp = self.stamp_ns()
+        self.fire_pub.publish(fire_grid_to_msg(self.episode.burning, stamp))
+        self.fuel_pub.publish(fuel_grid_to_msg(self.episode.fuel, stamp))
+
+    def publish_status(self, phase: str, tick: int, complete: bool = False) -> None:
+        values = {
+            "tick": tick,
+            "time_s": max(tick, 0) * DECISION_PERIOD_NS / 1e9,
+            **self.scenario,
+            "complete": "true" if complete else "false",
+        }
+        self.episode_pub.publish(episode_to_msg(phase, values))
+
+    def announce_tick(self) -> None:
+        """Status (phase, tick) then, in lockstep, the clock of the current tick."""
+        self.publish_status(self.episode.phase, self.episode.decisions)
+        if self.mode == "lockstep":
+            self.clock_pub.publish(clock_to_msg(self.stamp_ns()))
+
+    # --- callbacks ----------------------------------------------------------------------------
+
+    def ack_callback(self, msg: Any) -> None:
+        reporter, stamp = ack_from_msg(msg)
+        if reporter.endswith(READY_SUFFIX):
+            self.ready.add(reporter[: -len(READY_SUFFIX)])
+        else:
+            self.acked[reporter] = max(stamp, self.acked.get(reporter, -1))
+        if not self.started:
+            if self.reporters <= self.ready:
+                self.started = True
+                self.get_logger().info("every reporter is ready: tick 0")
+                self.announce_tick()
+            return
+        if self.mode == "lockstep":
+            self.advance_lockstep()
+
+    def advance_lockstep(self) -> None:
+        """Next tick once every reporter has finished the current one."""
+        stamp = self.stamp_ns()
+        while not self.complete and all(self.acked.get(r, -1) >= stamp for r in self.reporters):
+            if self.episode.final:
+                self.complete = True
+                self.publish_status(self.episode.phase, self.episode.decisions, complete=True)
+                self.get_logger().info(
+                    f"episode {self.episode.phase} after {self.episode.decisions} decisions"
+                )
+                return
+            if self.episode.advance():
+                self.publish_maps()
+            self.announce_tick()
+            stamp = self.stamp_ns()
+
+    def realtime_timer_callback(self) -> None:
+        if not self.started or self.complete:
+            return
+        if self.episode.final:
+            self.complete = True
+            self.publish_status(self.episode.phase, self.episode.decisions, complete=True)
+            self.get_logger().info(f"episode {self.episode.phase} at {self.stamp_ns() / 1e9:.1f} s")
+            return
+        if self.episode.advance():
+            self.publish_maps()
+            self.announce_tick()
+        elif self.episode.final:
+            self.announce_tick()
+
+
+def main(args: list[str] | None = None) -> None:
+    """``ros2 run wildfire_sim fire_simulator``."""
+    sys.exit(run_node(FireSimulatorNode, "fire_simulator", args, (FireConfigError, ValueError)))
+
+
+if __name__ == "__main__":
+    main()
