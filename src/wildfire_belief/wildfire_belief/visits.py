@@ -58,15 +58,18 @@ def visited_cells(windows: VisitWindows) -> tuple[np.ndarray, np.ndarray]:
     ``windows`` has leading dims (E, N). Returns ``(env, cell)`` int64 arrays with the flat
     cell index ``row * GRID_SIZE + col``, no duplicates, in no particular order.
     """
-    env, aircraft, i, j = np.nonzero(windows.visited)
-    rows = windows.row0[env, aircraft] + i
-    cols = windows.col0[env, aircraft] + j
+    num_envs, num_aircraft = windows.visited.shape[:2]
+    flat_window = np.flatnonzero(windows.visited)
+    pose, offset = np.divmod(flat_window, VISIT_WINDOW * VISIT_WINDOW)
+    i, j = np.divmod(offset, VISIT_WINDOW)
+    env = pose // num_aircraft
     cells_per_env = GRID_SIZE * GRID_SIZE
-    key = env * cells_per_env + rows * GRID_SIZE + cols
+    key = env * cells_per_env + (windows.row0.reshape(-1)[pose] + i) * GRID_SIZE
+    key += windows.col0.reshape(-1)[pose] + j
     # Deduplicate in O(visits): every occurrence stamps its position into a scratch array
     # indexed by cell; the occurrence whose stamp survived is the one kept. (np.unique sorts
     # or hashes, and was the slowest part of a decision.)
-    stamp = np.empty(windows.visited.shape[0] * cells_per_env, dtype=np.int64)
+    stamp = np.empty(num_envs * cells_per_env, dtype=np.int64)
     position = np.arange(key.size)
     stamp[key] = position
     key = key[stamp[key] == position]

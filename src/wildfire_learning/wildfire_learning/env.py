@@ -182,6 +182,9 @@ class WildfireVecEnv:
         self.terminated = np.zeros(num_envs, dtype=bool)
         self._maps: FireFieldMaps | None = None
         self._maps_stale = np.ones(num_envs, dtype=bool)
+        # C-contiguous copy of the burning grids, refreshed when fires step: sensors and
+        # visits read it every decision, and the fire model stores its grids env-last.
+        self.truth = np.ascontiguousarray(self.fire.burning)
 
     # ------------------------------------------------------------------ reset
     def reset(
@@ -218,6 +221,7 @@ class WildfireVecEnv:
         self.terminated[env_ids] = self._fire_at_border(env_ids)
         self.done[env_ids] = self.terminated[env_ids]
         self._maps_stale[env_ids] = True
+        self.truth = np.ascontiguousarray(self.fire.burning)
         return self.observe()
 
     # ------------------------------------------------------------------- step
@@ -237,6 +241,7 @@ class WildfireVecEnv:
         fire_due = active & (self.decisions % DECISIONS_PER_FIRE_STEP == 0)
         if fire_due.any():
             self.fire.step(fire_due)
+            self.truth = np.ascontiguousarray(self.fire.burning)
             self._maps_stale |= fire_due
         team_reward = self._visit(active)
         self.scores += team_reward
@@ -272,7 +277,7 @@ class WildfireVecEnv:
         env, cell = visited_cells(windows)
         keep = active[env]
         env, cell = env[keep], cell[keep]
-        truth = self.fire.burning[env, cell // GRID_SIZE, cell % GRID_SIZE]
+        truth = self.truth.reshape(-1)[env * GRID_SIZE * GRID_SIZE + cell]
         return self.belief.visit(env, cell, truth)
 
     def _fire_at_border(self, env_ids: np.ndarray) -> np.ndarray:
@@ -286,10 +291,10 @@ class WildfireVecEnv:
     def maps(self) -> FireFieldMaps:
         """Reward look-up data of the current fires (refreshed after fire steps)."""
         if self._maps is None:
-            self._maps = fire_field_maps(self.fire.burning, self.config.obs_weights)
+            self._maps = fire_field_maps(self.truth, self.config.obs_weights)
         elif self._maps_stale.any():
             stale = np.flatnonzero(self._maps_stale)
-            burning = np.ascontiguousarray(self.fire.burning)
+            burning = self.truth
             distance = self._maps.distance_m
             distance[stale] = distance_to_fire(
                 burning[stale], self.config.obs_weights.max_distance_m
@@ -309,7 +314,7 @@ class WildfireVecEnv:
             return {"state": self.pair_states()}
         a = self.aircraft
         if kind == "obs":
-            images = sensor.observe(self.fire.burning, a.x_m, a.y_m, a.heading_rad)[:, :, None]
+            images = sensor.observe(self.truth, a.x_m, a.y_m, a.heading_rad)[:, :, None]
             images = images.astype(np.float32)
         else:
             images = ego_images(
