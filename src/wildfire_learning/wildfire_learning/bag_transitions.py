@@ -1,0 +1,314 @@
+"""Rebuild DQN transitions from a bag recorded by ``wildfire run --record``.
+
+The bag holds what the nodes publish (:mod:`wildfire_msgs_py.contract`); the transitions are
+rebuilt by re-running the very functions the environment runs (sensor, belief visits, ego
+image, rewards, pairwise states) on the recorded exact states, fire maps and actions, so a
+lockstep bag gives the transitions :class:`~wildfire_learning.env.WildfireVecEnv` gives for
+the same seed (tested).
+
+Topics used (one episode per bag):
+
+* ``/uavK/state`` (required, K = 0, 1, ...): exact ``[x, y, heading, bank]``; the start pose
+  then one message per decision (if the start pose is missing, the first transition is).
+* ``/uavK/bank_cmd`` (optional): the bank commanded at each decision; the action is the sign
+  of its change from the previous bank (at the +-50 degree limit an unchanged bank means the
+  action towards the limit, which SPEC 2.2 ignores). Without it, banks of the states are used.
+* ``/wildfire/fire_map`` (required): the pre-burnt fire, then one map per fire step. Decision
+  ``t`` (1-based) sees fire map ``t // 25``, as in the environment. Maps are placed by their
+  header stamps when these increase (step = round(stamp delta / 2.5 s), a re-published map
+  replaces the earlier one of the same step), otherwise by order.
+* ``/wildfire/belief`` (belief approach only): its first message is the initial belief (the
+  ignition seed); the belief is then rebuilt decision by decision.
+
+The last transition is terminal when its decision ended a fire step with fire within
+``border_cells`` of the edge (the environment's rule); otherwise the bag simply ends (Ctrl-C or
+the time limit) and the transition bootstraps.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from wildfire_agent import pairwise, sensor
+from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS, AircraftState
+from wildfire_agent.rewards import fire_field_maps, observation_rewards, proximity_sum
+from wildfire_belief.belief import SharedBelief
+from wildfire_belief.ego_image import ego_images
+from wildfire_belief.visits import visit_windows, visited_cells
+from wildfire_learning.env import DECISIONS_PER_FIRE_STEP, EnvConfig
+from wildfire_learning.errors import LearningError
+from wildfire_learning.replay import ImageCodec
+from wildfire_msgs_py import codecs, contract
+from wildfire_msgs_py.bag import bag_info, read_messages
+from wildfire_msgs_py.errors import WildfireRosError
+from wildfire_sim.grid import GRID_SIZE
+
+FIRE_STEP_NS = 2_500_000_000
+"""Fire step period in nanoseconds (stamps of the fire maps)."""
+
+
+class Recording(NamedTuple):
+    """What a bag holds for rebuilding one episode."""
+
+    fire_maps: list[np.ndarray]
+    """Burning grids (100, 100) bool, index = fire step since the aircraft started."""
+    states: np.ndarray
+    """(T0 + 1, N, 4) exact states [x, y, heading, bank] at decisions t0 .. t0 + T0."""
+    first_decision: int
+    """Decision index of ``states[0]``: 0 if the start pose was recorded, else 1."""
+    bank_cmds: np.ndarray | None
+    """(T0, N) commanded banks of decisions first_decision + 1 .., or None."""
+    initial_belief: np.ndarray | None
+    """(100, 100) bool initial belief (first /wildfire/belief), or None."""
+
+
+class RebuiltSequence(NamedTuple):
+    """One aircraft's trajectory: T + 1 observations and T transitions."""
+
+    aircraft: int
+    images: np.ndarray
+    """(T + 1, C, H, W) uint8, encoded with :class:`ImageCodec` of the approach."""
+    states: np.ndarray
+    """(T + 1, K, 5) float32 normalised pairwise states."""
+    actions: np.ndarray
+    """(T,) int64."""
+    rewards: np.ndarray
+    """(T,) float64 training reward of the approach."""
+    terminated: np.ndarray
+    """(T,) float32."""
+
+
+def _stamp_ns(message: object) -> int:
+    header = getattr(message, "header", None)
+    return 0 if header is None else codecs.time_from_msg(header.stamp)
+
+
+def _place_fire_maps(maps: list[tuple[int, np.ndarray]], bag: Path) -> list[np.ndarray]:
+    """Fire maps indexed by fire step (see the module docstring)."""
+    stamps = [stamp for stamp, _ in maps]
+    if len(maps) > 1 and all(b >= a for a, b in itertools.pairwise(stamps)) and (
+        stamps[-1] > stamps[0]
+    ):
+        by_step: dict[int, np.ndarray] = {}
+        for stamp, grid in maps:
+            by_step[round((stamp - stamps[0]) / FIRE_STEP_NS)] = grid
+        steps = sorted(by_step)
+        if steps != list(range(len(steps))):
+            missing = sorted(set(range(steps[-1] + 1)) - set(steps))
+            raise LearningError(f"bag {bag}: fire maps of fire steps {missing[:5]} are missing")
+        return [by_step[s] for s in steps]
+    return [grid for _, grid in maps]
+
+
+def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
+    """Read the topics of one episode; raise :class:`LearningError` on bad or missing input."""
+    bag = Path(bag_dir)
+    try:
+        topics = {t.name for t in bag_info(bag).topics}
+    except WildfireRosError as error:
+        raise LearningError(str(error)) from None
+    aircraft = sorted(
+        k for t in topics
+        if (k := contract.aircraft_index(t)) is not None and t == contract.STATE.resolve(k)
+    )
+    required = [contract.FIRE_MAP.name] + ([contract.BELIEF.name] if need_belief else [])
+    missing = [t for t in required if t not in topics]
+    if not aircraft:
+        missing.append("/uavK/state")
+    if missing or aircraft != list(range(len(aircraft))):
+        expected = ", ".join(["/wildfire/fire_map", "/uav0/state", "/uav1/state", "..."]
+                             + (["/wildfire/belief"] if need_belief else []))
+        raise LearningError(
+            f"bag {bag}: missing topic {', '.join(missing) or '/uavK/state (numbering)'} "
+            f"(expected {expected} as recorded by `wildfire run --record`)"
+        )
+    state_topics = {contract.STATE.resolve(k): k for k in aircraft}
+    cmd_topics = {contract.BANK_CMD.resolve(k): k for k in aircraft}
+    use_cmds = all(t in topics for t in cmd_topics)
+    wanted = [contract.FIRE_MAP.name, *state_topics] + (list(cmd_topics) if use_cmds else [])
+    if need_belief:
+        wanted.append(contract.BELIEF.name)
+
+    fire: list[tuple[int, np.ndarray]] = []
+    states: list[list[np.ndarray]] = [[] for _ in aircraft]
+    cmds: list[list[float]] = [[] for _ in aircraft]
+    belief: np.ndarray | None = None
+    try:
+        for record in read_messages(bag, wanted):
+            if record.topic in state_topics:
+                states[state_topics[record.topic]].append(codecs.state_from_msg(record.message))
+            elif record.topic in cmd_topics:
+                cmds[cmd_topics[record.topic]].append(codecs.bank_cmd_from_msg(record.message))
+            elif record.topic == contract.FIRE_MAP.name:
+                grid = codecs.fire_grid_from_msg(record.message)
+                if grid.shape != (GRID_SIZE, GRID_SIZE):
+                    raise LearningError(f"bag {bag}: fire map of shape {grid.shape}, "
+                                        f"expected {(GRID_SIZE, GRID_SIZE)}")
+                fire.append((_stamp_ns(record.message), grid))
+            elif record.topic == contract.BELIEF.name and belief is None:
+                belief = codecs.belief_from_msg(record.message)
+    except WildfireRosError as error:
+        raise LearningError(str(error)) from None
+    if not fire:
+        raise LearningError(f"bag {bag}: no message on /wildfire/fire_map")
+
+    # Align the aircraft: the same number of poses (a Ctrl-C may cut one stream short).
+    poses = min(len(s) for s in states)
+    if use_cmds:
+        counts = [len(c) for c in cmds]
+        with_start = all(len(s) >= c + 1 for s, c in zip(states, counts, strict=True))
+        first = 0 if with_start else 1
+        if not with_start:
+            # The node publishes states only after decisions: the first command has no pose
+            # before it, so drop it.
+            cmds = [c[1:] for c in cmds]
+        decisions = min(poses - 1, *(len(c) for c in cmds))
+    else:
+        first, decisions = 0, poses - 1
+    if decisions < 1:
+        raise LearningError(f"bag {bag}: fewer than two poses per aircraft, nothing to rebuild")
+    state_array = np.stack([np.stack(s[: decisions + 1]) for s in states], axis=1)
+    cmd_array = (np.array([c[:decisions] for c in cmds], dtype=np.float64).T
+                 if use_cmds else None)
+    return Recording(
+        fire_maps=_place_fire_maps(fire, bag),
+        states=state_array,
+        first_decision=first,
+        bank_cmds=cmd_array,
+        initial_belief=belief,
+    )
+
+
+def actions_from_banks(previous_bank_rad: np.ndarray, commanded_bank_rad: np.ndarray) -> np.ndarray:
+    """Actions (0: -5 deg, 1: +5 deg) that turn ``previous`` into ``commanded`` banks."""
+    before = np.rint(np.asarray(previous_bank_rad) / BANK_STEP_RAD).astype(np.int64)
+    after = np.rint(np.asarray(commanded_bank_rad) / BANK_STEP_RAD).astype(np.int64)
+    delta = after - before
+    held = delta == 0
+    if np.any(np.abs(delta) > 1) or np.any(held & (np.abs(before) != MAX_BANK_STEPS)):
+        raise LearningError(
+            "bank commands: consecutive banks must differ by exactly one 5 degree step "
+            "(or stay at the 50 degree limit); is the bag from a lockstep run?"
+        )
+    return np.where(held, (before > 0).astype(np.int64), (delta > 0).astype(np.int64))
+
+
+def _fire_at_border(burning: np.ndarray, band: int) -> bool:
+    inner = burning[band : GRID_SIZE - band, band : GRID_SIZE - band].sum()
+    return bool(burning.sum() > inner)
+
+
+def rebuild_transitions(
+    recording: Recording, approach: str, config: EnvConfig
+) -> list[RebuiltSequence]:
+    """Per-aircraft transitions of a recording (see the module docstring)."""
+    codec = ImageCodec.for_approach(approach)
+    states = recording.states
+    t0 = recording.first_decision
+    # The last usable decision must have its fire map.
+    last = min(t0 + len(states) - 1, len(recording.fire_maps) * DECISIONS_PER_FIRE_STEP - 1)
+    states = states[: last - t0 + 1]
+    decisions = len(states) - 1
+    if decisions < 1:
+        raise LearningError("bag: the fire maps do not cover any decision")
+    n = states.shape[1]
+    bank_steps = np.rint(states[..., 3] / BANK_STEP_RAD).astype(np.int64)
+    if recording.bank_cmds is not None:
+        actions = actions_from_banks(states[:-1, :, 3], recording.bank_cmds[:decisions])
+    else:
+        actions = actions_from_banks(states[:-1, :, 3], states[1:, :, 3])
+
+    belief = SharedBelief(1)
+    if approach == "belief":
+        if recording.initial_belief is None:
+            raise LearningError("bag: the belief approach needs /wildfire/belief")
+        belief.reset([0], recording.initial_belief)
+
+    images: list[np.ndarray] = []
+    pair_states: list[np.ndarray] = []
+    rewards = np.zeros((decisions, n), dtype=np.float64)
+    maps = None
+    maps_index = -1
+    for i in range(decisions + 1):
+        t = t0 + i
+        step = t // DECISIONS_PER_FIRE_STEP
+        burning = recording.fire_maps[step]
+        pose = AircraftState(
+            x_m=states[i, :, 0][None], y_m=states[i, :, 1][None],
+            heading_rad=states[i, :, 2][None], bank_steps=bank_steps[i][None],
+        )
+        team = 0
+        if approach == "belief" and t >= 1:
+            # Decision t moved the aircraft, then visited (the environment's order).
+            belief.tick()
+            env_idx, cell = visited_cells(visit_windows(pose.x_m, pose.y_m))
+            truth = burning[cell // GRID_SIZE, cell % GRID_SIZE]
+            team = int(belief.visit(env_idx, cell, truth)[0])
+        if i >= 1 and approach == "obs":
+            if maps_index != step:
+                maps, maps_index = fire_field_maps(burning[None], config.obs_weights), step
+            rewards[i - 1] = observation_rewards(
+                maps, pose.x_m, pose.y_m, pose.bank_rad, config.obs_weights
+            )[0]
+        elif i >= 1:
+            proximity = proximity_sum(pose.x_m, pose.y_m, config.obs_weights.proximity_scale_m)
+            rewards[i - 1] = team - config.belief_proximity_weight * proximity[0]
+        if approach == "obs":
+            image = sensor.observe(burning[None], pose.x_m, pose.y_m, pose.heading_rad)[0]
+            image = image[:, None].astype(np.float32)
+        else:
+            image = ego_images(belief.burning, belief.age_s(), pose.x_m, pose.y_m,
+                               pose.heading_rad)[0]
+        images.append(codec.encode(image))
+        pair_states.append(pairwise.normalise(pairwise.pairwise_states(pose))[0])
+
+    terminated = np.zeros(decisions, dtype=np.float32)
+    t_last = t0 + decisions
+    if t_last % DECISIONS_PER_FIRE_STEP == 0 and _fire_at_border(
+        recording.fire_maps[t_last // DECISIONS_PER_FIRE_STEP], config.border_cells
+    ):
+        terminated[-1] = 1.0
+    image_stack = np.stack(images)  # (T + 1, N, C, H, W)
+    state_stack = np.stack(pair_states)  # (T + 1, N, K, 5)
+    return [
+        RebuiltSequence(
+            aircraft=k,
+            images=np.ascontiguousarray(image_stack[:, k]),
+            states=np.ascontiguousarray(state_stack[:, k]),
+            actions=actions[:, k].copy(),
+            rewards=rewards[:, k].copy(),
+            terminated=terminated.copy(),
+        )
+        for k in range(n)
+    ]
+
+
+def transitions_from_bags(
+    bag_dirs: Iterable[str | Path] | Sequence[str | Path], approach: str, config: EnvConfig
+) -> list[RebuiltSequence]:
+    """Rebuilt sequences of every aircraft of every bag."""
+    sequences: list[RebuiltSequence] = []
+    for bag in bag_dirs:
+        recording = read_recording(bag, need_belief=approach == "belief")
+        if recording.states.shape[1] != config.n_aircraft:
+            raise LearningError(
+                f"bag {bag}: {recording.states.shape[1]} aircraft, the network is trained "
+                f"for {config.n_aircraft}"
+            )
+        sequences += rebuild_transitions(recording, approach, config)
+    return sequences
+
+
+__all__ = [
+    "RebuiltSequence",
+    "Recording",
+    "actions_from_banks",
+    "read_recording",
+    "rebuild_transitions",
+    "transitions_from_bags",
+]
