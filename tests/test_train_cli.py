@@ -1,0 +1,126 @@
+"""``wildfire train`` end to end with tiny budgets: both approaches, resume, export, bad input."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from wildfire_learning.architectures import build_q_network
+from wildfire_learning.dqn import CHECKPOINT_FILE, CURVE_CSV, CURVE_PNG, load_checkpoint
+
+WILDFIRE = str(Path(sys.executable).with_name("wildfire"))
+# Seconds-long runs: few envs, a small replay, short episodes, one evaluation episode.
+TINY = ["--num-envs", "2", "--buffer-size", "400", "--learning-starts", "100",
+        "--eval-episodes", "1", "--episode-seconds", "4", "--target-network-frequency", "3"]
+
+
+def wildfire_train(*args: str, timeout: float = 150) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([WILDFIRE, "train", *args], capture_output=True, text=True,
+                          timeout=timeout, check=False)
+
+
+def run_json(*args: str) -> dict:
+    done = wildfire_train(*args, "--json")
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout)
+
+
+@pytest.mark.parametrize(
+    ("approach", "extra"),
+    [("obs", ["--iterations", "12"]),
+     ("belief", ["--iterations", "3", "--batch-size", "4", "--arch", "paper"])],
+)
+def test_train_smoke_writes_policy_curve_and_checkpoint(
+    tmp_path: Path, approach: str, extra: list[str]
+) -> None:
+    run_dir = tmp_path / "run"
+    summary = run_json("--approach", approach, *TINY, *extra, "--run-dir", str(run_dir),
+                       "--baseline", "123.5")
+    iterations = int(extra[1])
+    assert summary["iterations"] == iterations
+    # One iteration per 10 samples after the 100-sample prefill (a step adds 4 samples).
+    assert 100 + 10 * (iterations - 1) < summary["samples"] <= 100 + 10 * iterations + 4 + 100
+    assert summary["receding_horizon_score"] == 123.5
+    policy = run_dir / f"{approach}_policy.pt"
+    card = json.loads(policy.with_suffix(".json").read_text())
+    assert card["approach"] == approach and card["iterations"] == iterations
+    assert card["evaluation"]["episodes"] == 1
+    for name in (CHECKPOINT_FILE, CURVE_CSV, CURVE_PNG, "replay.npz"):
+        assert (run_dir / name).is_file(), name
+    rows = (run_dir / CURVE_CSV).read_text().splitlines()
+    assert rows[0].startswith("iteration,samples") and rows[1].startswith(f"{iterations},")
+
+
+def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    first = run_json("--approach", "obs", *TINY, "--iterations", "6", "--eval-every", "3",
+                     "--run-dir", str(run_dir))
+    before = load_checkpoint(run_dir)
+    second = run_json("--resume", "--run-dir", str(run_dir), "--iterations", "10")
+    assert second["iterations"] == 10
+    assert second["samples"] > first["samples"] and second["episodes"] > first["episodes"]
+    assert [r["iteration"] for r in second["learning_curve"]] == [3, 6, 9, 10]
+    after = load_checkpoint(run_dir)
+    # The resumed run kept its saved settings and went on training the saved weights.
+    assert after["config"]["num_envs"] == 2 and after["config"]["buffer_size"] == 400
+    assert after["state"]["iterations"] == 10 and before["state"]["iterations"] == 6
+    weights = "head.4.weight"
+    assert not torch.equal(before["q_network"][weights], after["q_network"][weights])
+
+    # The export opens with plain torch (no project module imported) ...
+    policy = run_dir / "obs_policy.pt"
+    images = (np.random.default_rng(0).random((3, 1, 30, 40)) < 0.3).astype(np.float32)
+    states = np.random.default_rng(1).standard_normal((3, 1, 5)).astype(np.float32)
+    np.save(tmp_path / "images.npy", images)
+    np.save(tmp_path / "states.npy", states)
+    script = (
+        "import sys, json, numpy as np, torch\n"
+        f"files = {{'wildfire_policy.json': ''}}\n"
+        f"m = torch.jit.load({str(policy)!r}, _extra_files=files)\n"
+        f"q = m(torch.from_numpy(np.load({str(tmp_path / 'images.npy')!r})),"
+        f" torch.from_numpy(np.load({str(tmp_path / 'states.npy')!r})))\n"
+        "assert not [k for k in sys.modules if k.startswith('wildfire')]\n"
+        "print(json.dumps({'q': q.tolist(), 'card': json.loads(files['wildfire_policy.json'])}))\n"
+    )
+    done = subprocess.run([sys.executable, "-I", "-c", script], capture_output=True, text=True,
+                          timeout=60, check=False)
+    assert done.returncode == 0, done.stderr
+    loaded = json.loads(done.stdout)
+    assert loaded["card"]["approach"] == "obs" and loaded["card"]["iterations"] == 10
+    # ... and gives the Q-values of the trained module.
+    module = build_q_network("obs")
+    module.load_state_dict(after["q_network"])
+    with torch.inference_mode():
+        expected = module.eval()(torch.from_numpy(images), torch.from_numpy(states))
+    np.testing.assert_allclose(np.array(loaded["q"]), expected.numpy(), rtol=1e-5, atol=1e-6)
+
+
+def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    run_json("--approach", "obs", *TINY, "--iterations", "2", "--run-dir", str(run_dir))
+    cases = [
+        (["--resume", "--run-dir", str(run_dir), "--approach", "belief"], "incompatible"),
+        (["--resume", "--run-dir", str(tmp_path / "none")], "no checkpoint"),
+        (["--approach", "obs", "--run-dir", str(run_dir)], "holds a run already"),
+        (["--approach", "obs", "--from-bag", str(tmp_path)], "--iterations"),
+        (["--approach", "obs", "--shapes", "hexagon", "--run-dir", str(tmp_path / "x")],
+         "hexagon"),
+        (["--approach", "obs", "--arch", "fast", "--run-dir", str(tmp_path / "y")], "fast"),
+        (["--baseline", "nothing.json", "--run-dir", str(tmp_path / "z")], "--baseline"),
+        (["--lr", "-1"], "expected a number > 0"),
+    ]
+    (tmp_path / "corrupt").mkdir()
+    (tmp_path / "corrupt" / CHECKPOINT_FILE).write_bytes(b"\x00garbage")
+    cases.append((["--resume", "--run-dir", str(tmp_path / "corrupt")], "unreadable"))
+    for args, expected in cases:
+        done = wildfire_train(*args, timeout=60)
+        assert done.returncode == 2, (args, done.stderr)
+        message = done.stderr.strip()
+        assert "\n" not in message and "Traceback" not in message, message
+        assert expected in message, (args, message)
