@@ -12,6 +12,8 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+import sys
+import time
 from dataclasses import fields
 from pathlib import Path
 from typing import Any
@@ -109,6 +111,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--online", action="store_true",
                         help="with --from-bag: prefill the replay with the bag transitions, "
                         "then train in simulation (default: train on the bags only)")
+    parser.add_argument("--log-every", type=positive_float, default=60.0, metavar="SECONDS",
+                        help="when stderr is not a terminal (nohup), print a status line "
+                        "this often (default: 60)")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
 
@@ -168,7 +173,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None and not out.parent.is_dir():
         raise UserError(f"--out {out}: directory {out.parent} does not exist")
 
-    with _progress(enabled=not args.json) as report:
+    with _progress(enabled=not args.json, log_every_s=args.log_every) as report:
         result = train(config, options, report)
 
     evaluation = result.card["evaluation"]
@@ -205,18 +210,29 @@ def run(args: argparse.Namespace) -> int:
 
 
 class _progress:
-    """A rich progress bar over training iterations (quiet with --json or without a tty)."""
+    """A rich progress bar on a terminal; without one, a status line every ``log_every_s``."""
 
-    def __init__(self, enabled: bool) -> None:
-        import sys
-
+    def __init__(self, enabled: bool, log_every_s: float) -> None:
         self.enabled = enabled and sys.stderr.isatty()
+        self.log_every_s = log_every_s
+        self.last_log = time.monotonic()
         self.progress: Any = None
         self.task: Any = None
 
+    def log(self, status: Status) -> None:
+        now = time.monotonic()
+        if now - self.last_log < self.log_every_s:
+            return
+        self.last_log = now
+        score = "-" if status.last_score is None else f"{status.last_score:.1f}"
+        print(f"{time.strftime('%H:%M:%S')} {status.phase}: iteration {status.iterations}/"
+              f"{status.target_iterations} samples {status.samples} epsilon "
+              f"{status.epsilon:.3f} loss {status.loss:.4g} last score {score}",
+              file=sys.stderr, flush=True)
+
     def __enter__(self) -> Any:
         if not self.enabled:
-            return None
+            return None if sys.stderr.isatty() else self.log
         from rich.progress import (
             BarColumn,
             Progress,

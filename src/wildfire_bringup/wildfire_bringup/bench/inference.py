@@ -1,0 +1,106 @@
+"""Policy inference and DQN training speed on this machine (one torch thread).
+
+* ``*_inference_ms``: median time of one decision of one ownship through
+  :class:`wildfire_agent.policies.TorchScriptPolicy` (what an agent node runs), for the shipped
+  model if present, else a freshly exported network of the same architecture (weights do not
+  change the time). Targets: obs <= 5 ms, belief <= 10 ms.
+* ``train_*``: a short real ``dqn.train`` run per approach/architecture (batched environments,
+  prefill, training iterations, one tiny evaluation): samples/s and iterations/s of the
+  training phase, environment samples/s of the random-action prefill, and the replay memory
+  the paper's 70 000-transition capacity would take.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from wildfire_agent.policies import TorchScriptPolicy
+from wildfire_learning.architectures import IMAGE_SHAPES, build_q_network
+from wildfire_learning.controllers import MODELS_DIR
+from wildfire_learning.dqn import RunOptions, TrainConfig, train
+from wildfire_learning.export import export_policy
+from wildfire_learning.replay import ImageCodec, ReplayBuffer
+
+PAPER_REPLAY = 70_000
+
+
+def _policy_file(approach: str, arch: str, directory: Path) -> tuple[Path, str]:
+    shipped = MODELS_DIR / f"{approach}_policy.pt"
+    if arch == "paper" and shipped.is_file():
+        return shipped, "shipped"
+    path = directory / f"{approach}_{arch}.pt"
+    export_policy(build_q_network(approach, arch), path, {"approach": approach, "arch": arch})
+    return path, "untrained (timing only)"
+
+
+def inference_ms(path: Path, approach: str, repeats: int) -> float:
+    """Median ms of one ownship decision (batch of one image, one pairwise state)."""
+    policy = TorchScriptPolicy(path)
+    rng = np.random.default_rng(0)
+    image = rng.random((1, *IMAGE_SHAPES[approach])).astype(np.float32)
+    state = rng.standard_normal((1, 1, 5)).astype(np.float32)
+    for _ in range(5):
+        policy.act(image, state)
+    times = []
+    for _ in range(repeats):
+        tic = time.perf_counter()
+        policy.act(image, state)
+        times.append(time.perf_counter() - tic)
+    return float(np.median(times) * 1000.0)
+
+
+def train_speed(approach: str, arch: str, iterations: int, directory: Path) -> dict[str, float]:
+    """Samples/s and iterations/s of a short real training run."""
+    config = TrainConfig(
+        approach=approach, arch=arch, iterations=iterations, num_envs=16,
+        buffer_size=5_000, learning_starts=2_000, eval_every=0, checkpoint_every=0,
+        eval_episodes=1, episode_seconds=2.0,
+    )
+    run_dir = directory / f"train_{approach}_{arch}"
+    result = train(config, RunOptions(run_dir=run_dir, out=run_dir / "policy.pt"))
+    frame = ReplayBuffer(1, IMAGE_SHAPES[approach], (1, 5), ImageCodec.for_approach(approach))
+    per_frame = (frame.images.nbytes + frame.states.nbytes) / frame.frame_capacity
+    return {
+        "samples_per_s": result.samples_per_s,
+        "iterations_per_s": result.iterations_per_s,
+        "env_samples_per_s": result.prefill_samples_per_s,
+        "replay_mb_at_70k": (PAPER_REPLAY * 1.05 * per_frame + PAPER_REPLAY * 32) / 2**20,
+    }
+
+
+def bench_inference(quick: bool = False) -> dict[str, Any]:
+    """Inference ms per decision and training speed, both approaches, one torch thread."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    figures: dict[str, Any] = {}
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            directory = Path(tmp)
+            repeats = 50 if quick else 300
+            for approach, arch, key in (("obs", "paper", "obs"), ("belief", "paper", "belief"),
+                                        ("belief", "fast", "belief_fast")):
+                path, source = _policy_file(approach, arch, directory)
+                figures[f"{key}_inference_ms"] = inference_ms(path, approach, repeats)
+                figures[f"{key}_model"] = source
+            budgets = {"obs": 20, "belief": 3, "belief_fast": 8}
+            if quick:
+                budgets = {"obs": 6, "belief": 1, "belief_fast": 2}
+            for approach, arch, key in (("obs", "paper", "obs"), ("belief", "paper", "belief"),
+                                        ("belief", "fast", "belief_fast")):
+                speed = train_speed(approach, arch, budgets[key], directory)
+                figures[f"train_samples_per_s_{key}"] = speed["samples_per_s"]
+                figures[f"train_iterations_per_s_{key}"] = speed["iterations_per_s"]
+                figures[f"env_samples_per_s_{key}"] = speed["env_samples_per_s"]
+                figures[f"replay_mb_at_70k_{key}"] = speed["replay_mb_at_70k"]
+    finally:
+        torch.set_num_threads(threads)
+    return figures
+
+
+__all__ = ["bench_inference", "inference_ms", "train_speed"]
