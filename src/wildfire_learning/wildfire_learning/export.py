@@ -34,7 +34,8 @@ def export_policy(model: nn.Module, path: str | Path, card: dict[str, Any]) -> P
     path = Path(path)
     if not path.parent.is_dir():
         raise LearningError(f"--out {path}: directory {path.parent} does not exist")
-    module = copy.deepcopy(model).to("cpu").eval()
+    # Deployment feeds single NCHW images: drop a channels-last training layout.
+    module = copy.deepcopy(model).to("cpu", memory_format=torch.contiguous_format).eval()
     scripted = torch.jit.script(module)
     # Write next to the target then rename: an interrupted export never leaves half a file.
     partial = path.with_name(path.name + ".partial")
