@@ -112,6 +112,8 @@ def run_node(
     from wildfire_msgs_py.runtime import PARAMETER_ERRORS, ExternalShutdownException, rclpy
 
     errors = (*PARAMETER_ERRORS, WildfireRosError, *user_errors)
+    # rclpy reads sys.argv when args is None; the DDS backend needs them given.
+    args = list(sys.argv if args is None else args)
     signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
     try:
         rclpy.init(args=args)

@@ -1,0 +1,288 @@
+"""``wildfire run``: launch the distributed system, one OS process per node.
+
+Starts the fire simulator, the belief aggregator and one agent per aircraft (plus, with
+``--record``, a rosbag2 recorder in the launcher), shows progress, stops everything at the
+end of the episode or on Ctrl-C (the recording is always finalized) and prints a summary.
+``--fast`` (the default) runs in lockstep on sim time and flies exactly what
+``wildfire eval --episodes 1`` flies for the same seed; ``--realtime`` runs on wall clocks.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from wildfire_bringup.cli.common import (
+    UserError,
+    non_negative_int,
+    positive_float,
+    positive_int,
+    print_json,
+    wind_vector,
+)
+from wildfire_bringup.cli.progress import progress_bar
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "run",
+        help="launch the distributed system (one process per node)",
+        description="Launch the fire simulator, the belief aggregator and one agent node per "
+        "aircraft as separate processes, optionally recording every topic to a rosbag2 "
+        "(MCAP) directory, and summarise the episode.",
+    )
+    parser.add_argument("--aircraft", type=positive_int, default=2, metavar="N")
+    parser.add_argument(
+        "--policy",
+        default="rh",
+        help="obs, belief (shipped models), rh (receding horizon), random or a TorchScript .pt",
+    )
+    parser.add_argument("--shape", default="circular", help="circular, t or arc")
+    parser.add_argument(
+        "--wind",
+        type=wind_vector,
+        default=None,
+        metavar="WX,WY",
+        help="fixed wind; by default the seed draws it in [-0.8, 0.8]^2",
+    )
+    parser.add_argument("--seed", type=non_negative_int, default=0, metavar="S")
+    parser.add_argument(
+        "--duration",
+        type=positive_float,
+        default=400.0,
+        metavar="SEC",
+        help="longest flight in seconds (the fire reaching the border ends it too)",
+    )
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument(
+        "--fast",
+        dest="realtime",
+        action="store_false",
+        help="lockstep on sim time, as fast as the slowest node (default)",
+    )
+    mode.add_argument(
+        "--realtime",
+        dest="realtime",
+        action="store_true",
+        help="every node on wall-clock timers (10 Hz agents, 2.5 s fire steps)",
+    )
+    parser.set_defaults(realtime=False)
+    parser.add_argument(
+        "--record",
+        type=Path,
+        metavar="DIR",
+        help="record every topic to this new rosbag2 directory",
+    )
+    parser.add_argument(
+        "--respawn",
+        action="store_true",
+        help="real time: restart an agent or the aggregator that dies",
+    )
+    parser.add_argument(
+        "--params-file", type=Path, metavar="YAML", help="ros__parameters file passed to every node"
+    )
+    parser.add_argument("--json", action="store_true", help="print a JSON summary")
+    parser.add_argument("--png", type=Path, metavar="FILE", help="draw fire, belief and paths")
+    parser.add_argument("--log-dir", type=Path, metavar="DIR", help="node logs (default: temp)")
+    parser.set_defaults(handler=run)
+
+
+def resolve_policy(policy: str) -> str:
+    """``rh``/``random`` as is; ``obs``/``belief``/``.pt`` checked and made absolute."""
+    from wildfire_agent.policies import TorchScriptPolicy
+    from wildfire_learning.controllers import (
+        BUILTIN_POLICIES,
+        SHIPPED_POLICIES,
+        resolve_policy_path,
+    )
+
+    if policy in BUILTIN_POLICIES:
+        return policy
+    if policy not in SHIPPED_POLICIES and not policy.endswith(".pt") and not Path(policy).exists():
+        raise UserError(
+            f"--policy {policy!r}: expected obs, belief, rh, random or a TorchScript .pt file"
+        )
+    path = resolve_policy_path(policy).resolve()
+    TorchScriptPolicy(path)  # a missing or incompatible file fails here, in one line
+    return str(path)
+
+
+def check_record_dir(path: Path) -> Path:
+    if path.exists():
+        raise UserError(f"--record {path}: already exists (give a new directory)")
+    parent = path.resolve().parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise UserError(f"--record {path}: cannot create it ({parent} is not a writable directory)")
+    return path
+
+
+def check_params_file(path: Path) -> Path:
+    try:
+        content = yaml.safe_load(path.read_text())
+    except OSError as error:
+        raise UserError(f"--params-file {path}: cannot read it ({error.strerror})") from None
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        where = f" at line {mark.line + 1}" if mark is not None else ""
+        raise UserError(f"--params-file {path}: malformed YAML{where}") from None
+    if not isinstance(content, dict) or not all(
+        isinstance(v, dict) and isinstance(v.get("ros__parameters"), dict) for v in content.values()
+    ):
+        raise UserError(
+            f"--params-file {path}: expected '<node>: {{ros__parameters: {{name: value}}}}' entries"
+        )
+    return path.resolve()
+
+
+def build_spec(args: argparse.Namespace) -> Any:
+    from wildfire_bringup.launcher import RunSpec
+    from wildfire_learning.env import EnvConfig, draw_scenario
+    from wildfire_sim.shapes import Shape
+
+    shape = Shape.parse(args.shape)
+    policy = resolve_policy(args.policy)
+    if args.respawn and not args.realtime:
+        raise UserError("--respawn: only with --realtime (lockstep runs are exact replays)")
+    config = EnvConfig(
+        n_aircraft=args.aircraft,
+        shapes=(shape.value,),
+        wind=args.wind,
+        max_duration_s=args.duration,
+    ).validate()
+    scenario = draw_scenario(args.seed, config)
+    start = np.stack([scenario.start.x_m, scenario.start.y_m, scenario.start.heading_rad], axis=1)
+    return RunSpec(
+        n_aircraft=args.aircraft,
+        policy=policy,
+        shape=shape.value,
+        wind=(float(scenario.wind[0]), float(scenario.wind[1])),
+        seed=args.seed,
+        duration_s=args.duration,
+        start=start,
+        lockstep=not args.realtime,
+        record_dir=check_record_dir(args.record) if args.record else None,
+        respawn=args.respawn,
+        log_dir=args.log_dir,
+        params_file=check_params_file(args.params_file) if args.params_file else None,
+    )
+
+
+def summarise(spec: Any, monitor: Any, wall_s: float) -> dict[str, Any]:
+    """Summary metrics of a finished run (SPEC 2.7 score and trajectory-derived metrics)."""
+    from wildfire_belief.belief import belief_iou, mean_age_at_burning
+    from wildfire_sim.episode import initial_fire
+
+    trajectory = monitor.trajectory()
+    status = monitor.status
+    decisions = status.tick if status is not None else 0
+    flown = (
+        np.hypot(*np.diff(trajectory[:, :, :2], axis=0).transpose(2, 0, 1)).sum(axis=0)
+        if len(trajectory) > 1
+        else np.zeros(spec.n_aircraft)
+    )
+    result: dict[str, Any] = {
+        "policy": spec.policy,
+        "aircraft": spec.n_aircraft,
+        "shape": spec.shape,
+        "seed": spec.seed,
+        "wind": list(spec.wind),
+        "mode": spec.mode,
+        "score": int(round(monitor.score)),
+        "decisions": decisions,
+        "flight_time_s": decisions / 10.0,
+        "end": status.phase if status is not None else "unknown",
+        "wall_time_s": wall_s,
+        "speedup": (decisions / 10.0) / wall_s if wall_s > 0 else 0.0,
+        "distance_flown_m": flown.tolist(),
+        "trajectory_points": len(trajectory),
+    }
+    if monitor.fire is not None and monitor.belief is not None:
+        result["belief_iou"] = float(belief_iou(monitor.belief[None], monitor.fire[None])[0])
+        if monitor.ages is not None:
+            age = mean_age_at_burning(monitor.ages[None], monitor.fire[None])[0]
+            result["mean_age_burning_s"] = None if np.isnan(age) else float(age)
+    if monitor.fire is not None and len(trajectory):
+        rows, cols = np.nonzero(monitor.fire)
+        if rows.size:
+            centres = np.stack([(cols + 0.5) * 10.0, (rows + 0.5) * 10.0], axis=1)
+            last = trajectory[-1, :, :2]
+            result["final_distance_to_fire_m"] = (
+                np.hypot(*(last[:, None, :] - centres[None]).transpose(2, 0, 1))
+                .min(axis=1)
+                .tolist()
+            )
+    if monitor.deadlines:
+        result["deadlines"] = {f"uav{k}": v for k, v in sorted(monitor.deadlines.items())}
+        decided = sum(v.get("decisions", 0) for v in monitor.deadlines.values())
+        missed = sum(v.get("missed", 0) for v in monitor.deadlines.values())
+        result["missed_deadline_fraction"] = missed / decided if decided else 0.0
+    if monitor.fuel is not None:
+        initial = initial_fire(spec.seed, spec.shape, spec.wind).initial_fuel[0]
+        result["_affected"] = (monitor.fuel < initial) | (
+            monitor.fire if monitor.fire is not None else False
+        )
+    return result
+
+
+def _raise_interrupt(_signum: int, _frame: Any) -> None:
+    raise KeyboardInterrupt
+
+
+def run(args: argparse.Namespace) -> int:
+    from wildfire_bringup.launcher import Launcher, NodeFailure
+
+    if args.png is not None and not os.access(args.png.resolve().parent, os.W_OK):
+        raise UserError(f"--png {args.png}: its directory is not writable")
+    spec = build_spec(args)
+    launcher = Launcher(spec)
+    # `kill`/`timeout` stop the run like Ctrl-C: children stopped, recording finalized.
+    signal.signal(signal.SIGTERM, _raise_interrupt)
+    total = int(round(args.duration * 10))
+    label = f"run {args.policy} ({spec.mode})"
+    try:
+        with progress_bar(label, total, enabled=not args.json) as bar:
+            monitor = launcher.run(progress=bar)
+    except NodeFailure as error:
+        where = f"; recording finalized in {spec.record_dir}" if spec.record_dir else ""
+        raise UserError(f"{error}{where} (logs in {launcher.log_dir})") from None
+    result = summarise(spec, monitor, launcher.wall_s)
+    affected = result.pop("_affected", None)
+    if spec.record_dir is not None:
+        result["record"] = str(spec.record_dir)
+    if launcher.respawns:
+        result["respawns"] = launcher.respawns
+    if args.png is not None and monitor.fire is not None and monitor.belief is not None:
+        from wildfire_learning.plots import plot_episode
+
+        trajectory = monitor.trajectory()
+        plot_episode(
+            monitor.fire,
+            affected if affected is not None else monitor.fire,
+            monitor.belief,
+            trajectory[:, :, :2],
+            args.png,
+            f"distributed {args.policy}, {spec.n_aircraft} aircraft, {spec.shape}, seed "
+            f"{spec.seed}, wind {spec.wind[0]:+.2f},{spec.wind[1]:+.2f}: score {result['score']}",
+        )
+        result["png"] = str(args.png)
+    if args.json:
+        print_json(result)
+    else:
+        missed = result.get("missed_deadline_fraction")
+        print(
+            f"{args.policy}, {spec.n_aircraft} aircraft, {spec.shape}, seed {spec.seed} "
+            f"({spec.mode}): score {result['score']} after {result['flight_time_s']:.1f} s "
+            f"({result['end']}); belief IoU {result.get('belief_iou', float('nan')):.2f}; "
+            f"{result['wall_time_s']:.1f} s wall ({result['speedup']:.1f}x real time)"
+            + (f"; missed deadlines {100 * missed:.2f} %" if missed is not None else "")
+        )
+        for key in ("record", "png"):
+            if key in result:
+                print(f"wrote {result[key]}")
+    return 0

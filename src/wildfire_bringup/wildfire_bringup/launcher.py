@@ -1,0 +1,279 @@
+"""Start the distributed system as OS processes, watch it, stop it, summarise it.
+
+One process per node: ``fire_simulator``, ``belief_aggregator`` and ``agent`` per aircraft
+(``/uavK``), each ``python -m <package>.<node module> --ros-args ...``. The launcher's own
+process spins the :class:`RunMonitorNode` and, with a record directory, the rosbag2
+:class:`BagRecorder` in one executor.
+
+Every child gets the run's ``ROS_DOMAIN_ID`` (a run-unique id unless the user set one) and
+the loopback Cyclone DDS configuration (unless ``CYCLONEDDS_URI`` is set), so nothing
+leaves the machine. A child's output goes to ``<log dir>/<node>.log``; when a child dies
+the launcher names it, its exit status and the last line it wrote, finalizes the recording
+and stops the rest — or, with ``respawn`` in real time, starts it again (an agent continues
+from its last published state, the aggregator recovers the belief from the agents).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from wildfire_bringup.monitor_node import REPORTER, RunMonitorNode
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+REPO_ROOT = Path(__file__).resolve().parents[3]
+LOOPBACK_CONFIG = REPO_ROOT / "config" / "cyclonedds_loopback.xml"
+FATAL_ON_DEATH = ("fire_simulator",)
+"""Nodes that cannot be respawned: a new fire simulator would restart the truth."""
+
+
+class NodeFailure(Exception):
+    """A node of the system died; the message names it and why."""
+
+
+@dataclass
+class RunSpec:
+    """What ``wildfire run`` starts."""
+
+    n_aircraft: int
+    policy: str
+    """``rh``, ``random`` or a TorchScript file path."""
+    shape: str
+    wind: tuple[float, float]
+    seed: int
+    duration_s: float
+    start: np.ndarray
+    """(N, 3) start x, y, heading of every aircraft."""
+    lockstep: bool = True
+    record_dir: Path | None = None
+    respawn: bool = False
+    log_dir: Path | None = None
+    params_file: Path | None = None
+    """A ``ros__parameters`` file given to every node (before the launcher's own values)."""
+    extra_env: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def mode(self) -> str:
+        return "lockstep" if self.lockstep else "realtime"
+
+
+def child_environment(extra: dict[str, str] | None = None) -> dict[str, str]:
+    """Environment of the children: loopback DDS and a run-unique domain unless set."""
+    env = dict(os.environ)
+    env.setdefault("CYCLONEDDS_URI", LOOPBACK_CONFIG.as_uri())
+    # Domain ids 1..100 stay within Cyclone's port range for our participant counts.
+    env.setdefault("ROS_DOMAIN_ID", str(1 + (os.getpid() + int(time.time())) % 100))
+    env["PYTHONUNBUFFERED"] = "1"
+    env.update(extra or {})
+    return env
+
+
+def _param_args(params: dict[str, Any]) -> list[str]:
+    args: list[str] = []
+    for name, value in params.items():
+        text = (
+            repr(value)
+            if isinstance(value, float)
+            else str(value).lower()
+            if isinstance(value, bool)
+            else str(value)
+        )
+        args += ["-p", f"{name}:={text}"]
+    return args
+
+
+def node_commands(
+    spec: RunSpec, agent_states: dict[int, np.ndarray] | None = None
+) -> dict[str, list[str]]:
+    """Command line of every node, by node name (``fire_simulator``, ``uav0``, ...)."""
+    common = {"seed": spec.seed, "shape": spec.shape, "mode": spec.mode}
+    commands = {
+        "fire_simulator": [
+            "wildfire_sim.fire_simulator_node",
+            *_param_args(
+                {
+                    **common,
+                    "wind_x": float(spec.wind[0]),
+                    "wind_y": float(spec.wind[1]),
+                    "duration_s": float(spec.duration_s),
+                    "n_aircraft": spec.n_aircraft,
+                    "extra_reporters": REPORTER,
+                }
+            ),
+        ],
+        "belief_aggregator": [
+            "wildfire_belief.belief_aggregator_node",
+            *_param_args({**common, "n_aircraft": spec.n_aircraft}),
+        ],
+    }
+    for k in range(spec.n_aircraft):
+        x, y, heading = (float(v) for v in spec.start[k])
+        bank_steps = 0
+        if agent_states and k in agent_states:
+            x, y, heading, bank = (float(v) for v in agent_states[k])
+            bank_steps = round(bank / np.deg2rad(5.0))
+        params = {
+            "seed": spec.seed,
+            "mode": spec.mode,
+            "aircraft": k,
+            "n_aircraft": spec.n_aircraft,
+            "policy": spec.policy,
+            "start_x": x,
+            "start_y": y,
+            "start_heading": heading,
+            "start_bank_steps": bank_steps,
+        }
+        commands[f"uav{k}"] = [
+            "wildfire_agent.agent_node",
+            "--ros-args",
+            "-r",
+            f"__ns:=/uav{k}",
+            *_param_args(params),
+        ]
+    for name, command in commands.items():
+        module, *rest = command
+        if rest[:1] == ["--ros-args"]:
+            rest = rest[1:]
+        if spec.params_file is not None:
+            rest = ["--params-file", str(spec.params_file), *rest]
+        commands[name] = [sys.executable, "-m", module, "--ros-args", *rest]
+    return commands
+
+
+def last_line(path: Path) -> str:
+    """Last non-empty line of a log file (what a dying node said)."""
+    try:
+        lines = [line.strip() for line in path.read_text(errors="replace").splitlines()]
+    except OSError:
+        return ""
+    lines = [line for line in lines if line]
+    return lines[-1] if lines else ""
+
+
+class Launcher:
+    """Runs one episode of the distributed system (see the module docstring)."""
+
+    def __init__(self, spec: RunSpec) -> None:
+        self.spec = spec
+        self.env = child_environment(spec.extra_env)
+        self.log_dir = spec.log_dir or Path(tempfile.mkdtemp(prefix="wildfire-run-"))
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        self.processes: dict[str, subprocess.Popen[bytes]] = {}
+        self.respawns: dict[str, int] = {}
+        self.recorder: Any = None
+        self.monitor: RunMonitorNode | None = None
+        self.executor: Any = None
+        self.wall_s = 0.0
+
+    # --- processes ----------------------------------------------------------------------------
+
+    def start_node(self, name: str, command: list[str]) -> None:
+        log = open(self.log_dir / f"{name}.log", "ab")  # noqa: SIM115 (kept by the child)
+        self.processes[name] = subprocess.Popen(
+            command,
+            env=self.env,
+            stdin=subprocess.DEVNULL,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,  # Ctrl-C reaches the launcher only: it stops the children
+        )
+        log.close()
+
+    def check_children(self) -> None:
+        """Raise :class:`NodeFailure` for a dead child (or respawn it)."""
+        for name, process in list(self.processes.items()):
+            status = process.poll()
+            if status is None:
+                continue
+            why = last_line(self.log_dir / f"{name}.log") or "no output"
+            how = f"signal {-status}" if status < 0 else f"exit status {status}"
+            if self.spec.respawn and not self.spec.lockstep and name not in FATAL_ON_DEATH:
+                self.respawns[name] = self.respawns.get(name, 0) + 1
+                print(f"wildfire run: node {name} died ({how}): respawning", file=sys.stderr)
+                states = None
+                if name.startswith("uav") and self.monitor is not None:
+                    k = int(name[3:])
+                    latest = self.monitor.states[k]
+                    states = {k: latest[max(latest)]} if latest else None
+                self.start_node(name, node_commands(self.spec, states)[name])
+                continue
+            raise NodeFailure(f"node {name} died ({how}): {why}")
+
+    def stop_children(self, timeout_s: float = 5.0) -> None:
+        """SIGINT every child, then SIGKILL what is left after ``timeout_s``."""
+        for process in self.processes.values():
+            if process.poll() is None:
+                try:
+                    os.killpg(process.pid, signal.SIGINT)
+                except ProcessLookupError:
+                    pass
+        end = time.monotonic() + timeout_s
+        for process in self.processes.values():
+            try:
+                process.wait(timeout=max(0.1, end - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+                process.wait()
+
+    # --- running ------------------------------------------------------------------------------
+
+    def run(
+        self, progress: Callable[[int], None] | None = None, timeout_s: float | None = None
+    ) -> RunMonitorNode:
+        """Start everything, wait for the end of the episode, stop; return the monitor."""
+        from wildfire_msgs_py import runtime
+
+        os.environ["ROS_DOMAIN_ID"] = self.env["ROS_DOMAIN_ID"]
+        os.environ["CYCLONEDDS_URI"] = self.env["CYCLONEDDS_URI"]
+        runtime.rclpy.init(args=[])
+        start = time.monotonic()
+        try:
+            self.executor = runtime.SingleThreadedExecutor()
+            self.monitor = RunMonitorNode(self.spec.n_aircraft, self.spec.lockstep)
+            self.executor.add_node(self.monitor)
+            if self.spec.record_dir is not None:
+                from wildfire_msgs_py.bag import BagRecorder
+
+                self.recorder = BagRecorder(self.spec.record_dir, discovery_period=0.2)
+                self.executor.add_node(self.recorder.node)
+            for name, command in node_commands(self.spec).items():
+                self.start_node(name, command)
+            limit = timeout_s or (60.0 + 20.0 * self.spec.duration_s)
+            last_check = 0.0
+            while not self.monitor.complete:
+                self.executor.spin_once(timeout_sec=0.05)
+                now = time.monotonic()
+                if now - last_check > 0.2:
+                    last_check = now
+                    self.check_children()
+                    if progress is not None and self.monitor.status is not None:
+                        progress(max(self.monitor.status.tick, 0))
+                if now - start > limit:
+                    raise NodeFailure(f"the episode did not end within {limit:.0f} s of wall time")
+            # The last belief, score and deadline messages may still be in flight.
+            end = time.monotonic() + 0.5
+            while time.monotonic() < end:
+                self.executor.spin_once(timeout_sec=0.05)
+            return self.monitor
+        finally:
+            self.wall_s = time.monotonic() - start
+            self.stop_children()
+            if self.recorder is not None:
+                self.recorder.close()
+            if self.monitor is not None:
+                self.monitor.destroy_node()
+            runtime.rclpy.try_shutdown()
+
+
+__all__ = ["Launcher", "NodeFailure", "RunSpec", "child_environment", "node_commands"]
