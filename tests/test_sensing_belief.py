@@ -68,11 +68,12 @@ def test_belief_reward_counts_newly_seen_fire_once():
 
 
 def test_window_values_match_the_grid():
-    grid = np.arange(10000).reshape(1, 100, 100) % 7 == 0
+    grid = np.arange(1, 10001).reshape(1, 100, 100)  # every cell different
     windows = visit_windows(np.array([[250.0]]), np.array([[730.0]]))
+    r0, c0 = windows.row0[0, 0], windows.col0[0, 0]
     values = window_values(grid, windows)[0, 0]
-    i, j = 10, 12  # window centre row, two columns east
-    assert values[i, j] == grid[0, windows.row0[0, 0] + i, windows.col0[0, 0] + j]
+    expected = np.where(windows.visited[0, 0], grid[0, r0 : r0 + 21, c0 : c0 + 21], 0)
+    np.testing.assert_array_equal(values, expected)
 
 
 def test_ego_image_is_centred_and_heading_aligned():
