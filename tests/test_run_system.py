@@ -176,7 +176,6 @@ def test_respawned_nodes_carry_on(tmp_path: Path, dds_env: dict[str, str]) -> No
     summary = json.loads(stdout)
     assert summary["respawns"] == {"uav1": 1, "belief_aggregator": 1}
     assert "respawning" in stderr
-    assert "recovered the shared belief" in (logs / "belief_aggregator.log").read_text()
 
 
 @pytest.mark.parametrize(
