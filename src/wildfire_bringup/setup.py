@@ -10,6 +10,8 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/launch', ['launch/wildfire_launch.py']),
+        ('share/' + package_name + '/config', ['config/wildfire.yaml']),
     ],
     install_requires=['setuptools', 'pyyaml', 'rich', 'wildfire_msgs_py', 'wildfire_sim', 'wildfire_belief', 'wildfire_agent', 'wildfire_learning'],
     zip_safe=True,
