@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -124,3 +125,26 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
         message = done.stderr.strip()
         assert "\n" not in message and "Traceback" not in message, message
         assert expected in message, (args, message)
+
+
+def test_interrupted_run_checkpoints_and_resumes(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    process = subprocess.Popen(
+        [WILDFIRE, "train", "--approach", "obs", *TINY, "--iterations", "100000",
+         "--run-dir", str(run_dir), "--log-every", "0.2"],
+        stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+    )
+    try:
+        assert process.stderr is not None
+        for line in process.stderr:  # status lines: wait until it trains
+            if "training: iteration" in line and " iteration 0/" not in line:
+                break
+        process.send_signal(signal.SIGTERM)
+        assert process.wait(timeout=60) == 130
+    finally:
+        if process.poll() is None:
+            process.kill()
+    saved = load_checkpoint(run_dir)["state"]["iterations"]
+    assert 0 < saved < 100000
+    resumed = run_json("--resume", "--run-dir", str(run_dir), "--iterations", str(saved + 2))
+    assert resumed["iterations"] == saved + 2

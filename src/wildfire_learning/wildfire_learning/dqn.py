@@ -525,77 +525,82 @@ def train(
     train_phase_samples0 = state.samples
     train_phase_iterations0 = state.iterations
 
-    if options.offline:
-        # --- offline: iterate on the bag transitions only -------------------------------
-        train_phase_start = time.perf_counter()
-        while state.iterations < total_iterations:
-            train_step()
-            if state.iterations % 10 == 0:
-                status("training (offline)", 0.0)
-    else:
-        # --- online: batched environments, epsilon-greedy, one iteration per N samples --
-        env = WildfireVecEnv(config.env_config(), config.num_envs)
-        n = config.n_aircraft
-        seeds = (state.episodes + np.arange(config.num_envs)) % EVAL_SEED_BASE
-        state.episodes += config.num_envs
-        observations = env.reset(seeds)
-        frame_ids = replay.add_frames(*_flat(observations, np.arange(config.num_envs)))
-        frame_ids = frame_ids.reshape(config.num_envs, n)
+    try:
+        if options.offline:
+            # --- offline: iterate on the bag transitions only -------------------------------
+            train_phase_start = time.perf_counter()
+            while state.iterations < total_iterations:
+                train_step()
+                if state.iterations % 10 == 0:
+                    status("training (offline)", 0.0)
+        else:
+            # --- online: batched environments, epsilon-greedy, one iteration per N samples --
+            env = WildfireVecEnv(config.env_config(), config.num_envs)
+            n = config.n_aircraft
+            seeds = (state.episodes + np.arange(config.num_envs)) % EVAL_SEED_BASE
+            state.episodes += config.num_envs
+            observations = env.reset(seeds)
+            frame_ids = replay.add_frames(*_flat(observations, np.arange(config.num_envs)))
+            frame_ids = frame_ids.reshape(config.num_envs, n)
 
-        def finished() -> bool:
-            if config.iterations > 0:
-                return state.iterations >= config.iterations
-            return state.samples >= config.total_samples
+            def finished() -> bool:
+                if config.iterations > 0:
+                    return state.iterations >= config.iterations
+                return state.samples >= config.total_samples
 
-        while not finished():
-            epsilon = linear_schedule(config.start_e, config.end_e, config.exploration_samples,
-                                      state.samples)
-            prefilling = len(replay) < config.learning_starts
-            # Every aircraft of every environment: one batched forward pass.
-            actions = rng.integers(0, 2, size=(config.num_envs, n))
-            if not prefilling:
-                images, states = _flat(observations, np.arange(config.num_envs))
-                greedy = greedy_actions(q_network, images, states, config.channels_last)
-                explore = rng.random((config.num_envs, n)) < epsilon
-                actions = np.where(explore, actions, greedy.reshape(config.num_envs, n))
-            active = np.flatnonzero(~env.done)
-            result = env.step(actions)
-            observations = result.observations
-            # Every aircraft's transition goes to the one replay (the network is shared).
-            next_ids = replay.add_frames(*_flat(observations, active)).reshape(-1, n)
-            replay.add_transitions(
-                frame_ids[active].reshape(-1),
-                actions[active].reshape(-1),
-                result.rewards[active].reshape(-1),
-                np.repeat(result.terminated[active], n).astype(np.float32),
-                next_ids.reshape(-1),
-            )
-            frame_ids[active] = next_ids
-            new_samples = active.size * n
-            state.samples += new_samples
-            if prefilling:
-                prefill_samples += new_samples
-            ended = np.flatnonzero(env.done)
-            if ended.size:
-                seeds = (state.episodes + np.arange(ended.size)) % EVAL_SEED_BASE
-                state.episodes += int(ended.size)
-                observations = env.reset(seeds, ended)
-                frame_ids[ended] = replay.add_frames(*_flat(observations, ended)).reshape(-1, n)
+            while not finished():
+                epsilon = linear_schedule(config.start_e, config.end_e, config.exploration_samples,
+                                          state.samples)
+                prefilling = len(replay) < config.learning_starts
+                # Every aircraft of every environment: one batched forward pass.
+                actions = rng.integers(0, 2, size=(config.num_envs, n))
+                if not prefilling:
+                    images, states = _flat(observations, np.arange(config.num_envs))
+                    greedy = greedy_actions(q_network, images, states, config.channels_last)
+                    explore = rng.random((config.num_envs, n)) < epsilon
+                    actions = np.where(explore, actions, greedy.reshape(config.num_envs, n))
+                active = np.flatnonzero(~env.done)
+                result = env.step(actions)
+                observations = result.observations
+                # Every aircraft's transition goes to the one replay (the network is shared).
+                next_ids = replay.add_frames(*_flat(observations, active)).reshape(-1, n)
+                replay.add_transitions(
+                    frame_ids[active].reshape(-1),
+                    actions[active].reshape(-1),
+                    result.rewards[active].reshape(-1),
+                    np.repeat(result.terminated[active], n).astype(np.float32),
+                    next_ids.reshape(-1),
+                )
+                frame_ids[active] = next_ids
+                new_samples = active.size * n
+                state.samples += new_samples
+                if prefilling:
+                    prefill_samples += new_samples
+                ended = np.flatnonzero(env.done)
+                if ended.size:
+                    seeds = (state.episodes + np.arange(ended.size)) % EVAL_SEED_BASE
+                    state.episodes += int(ended.size)
+                    observations = env.reset(seeds, ended)
+                    frame_ids[ended] = replay.add_frames(*_flat(observations, ended)).reshape(-1, n)
 
-            if len(replay) >= config.learning_starts:
-                if train_phase_start is None:
-                    train_phase_start = time.perf_counter()
-                    train_phase_samples0 = state.samples
-                    train_phase_iterations0 = state.iterations
-                    if prefill_samples:
-                        prefill_rate = prefill_samples / (train_phase_start - prefill_start)
-                # Iterations owed for the samples since the prefill ended.
-                due = (state.samples - train_phase_samples0) // config.train_frequency
-                while state.iterations - train_phase_iterations0 < due and not (
-                    config.iterations > 0 and state.iterations >= config.iterations
-                ):
-                    train_step()
-            status("prefilling replay" if prefilling else "training", epsilon)
+                if len(replay) >= config.learning_starts:
+                    if train_phase_start is None:
+                        train_phase_start = time.perf_counter()
+                        train_phase_samples0 = state.samples
+                        train_phase_iterations0 = state.iterations
+                        if prefill_samples:
+                            prefill_rate = prefill_samples / (train_phase_start - prefill_start)
+                    # Iterations owed for the samples since the prefill ended.
+                    due = (state.samples - train_phase_samples0) // config.train_frequency
+                    while state.iterations - train_phase_iterations0 < due and not (
+                        config.iterations > 0 and state.iterations >= config.iterations
+                    ):
+                        train_step()
+                status("prefilling replay" if prefilling else "training", epsilon)
+    except KeyboardInterrupt:
+        # Ctrl-C or SIGTERM: keep what was learnt, `--resume` continues from here.
+        checkpoint()
+        raise
 
     train_wall = time.perf_counter() - train_phase_start if train_phase_start else 0.0
     session_samples = state.samples - train_phase_samples0

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+import signal
 import sys
 import time
 from dataclasses import fields
@@ -173,6 +174,8 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None and not out.parent.is_dir():
         raise UserError(f"--out {out}: directory {out.parent} does not exist")
 
+    # `kill PID` of a background run checkpoints like Ctrl-C does (see dqn.train).
+    signal.signal(signal.SIGTERM, _interrupt)
     with _progress(enabled=not args.json, log_every_s=args.log_every) as report:
         result = train(config, options, report)
 
@@ -207,6 +210,10 @@ def run(args: argparse.Namespace) -> int:
               f"{evaluation['episodes']} held-out episodes")
         print(f"wrote {result.out} (+ {result.out.with_suffix('.json').name}), curve in {run_dir}")
     return 0
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 class _progress:
