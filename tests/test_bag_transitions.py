@@ -183,3 +183,41 @@ def test_cli_trains_offline_from_a_bag(tmp_path: Path) -> None:
                              capture_output=True, text=True, timeout=60)
     assert missing.returncode == 2
     assert missing.stderr.strip().count("\n") == 0 and "no such directory" in missing.stderr
+
+
+def _replay_in_env(config: EnvConfig, seed: int, actions: np.ndarray) -> Rollout:
+    """The environment's transitions for ``seed`` under given actions (T, N)."""
+    env = WildfireVecEnv(config, 1)
+    observations = env.reset([seed])
+    codec = ImageCodec.for_approach(config.observation)
+    images, states, rewards = [codec.encode(observations["image"][0])], [
+        observations["state"][0]], []
+    for action in actions:
+        result = env.step(action[None])
+        images.append(codec.encode(result.observations["image"][0]))
+        states.append(result.observations["state"][0])
+        rewards.append(result.rewards[0])
+    return Rollout(np.stack(images), np.stack(states), actions, np.array(rewards),
+                   bool(env.terminated[0]))
+
+
+def test_bag_recorded_by_wildfire_run_rebuilds_environment_transitions(tmp_path: Path) -> None:
+    """A real lockstep recording (`wildfire run --fast --record`) against the environment."""
+    bag = tmp_path / "run"
+    done = subprocess.run(
+        [WILDFIRE, "run", "--aircraft", "2", "--policy", "random", "--seed", "7",
+         "--duration", "6", "--fast", "--record", str(bag), "--json"],
+        capture_output=True, text=True, timeout=120, check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    for approach in ("obs", "belief"):
+        config = EnvConfig(observation=approach, reward=approach, shapes=("circular",),
+                           max_duration_s=6.0)
+        sequences = transitions_from_bags([bag], approach, config)
+        actions = np.stack([s.actions for s in sequences], axis=1)
+        assert actions.shape == (60, 2)
+        expected = _replay_in_env(config, 7, actions)
+        for k, sequence in enumerate(sequences):
+            np.testing.assert_array_equal(sequence.images, expected.images[:, k])
+            np.testing.assert_array_equal(sequence.states, expected.states[:, k])
+            np.testing.assert_array_equal(sequence.rewards, expected.rewards[:, k])

@@ -8,8 +8,11 @@ the same seed (tested).
 
 Topics used (one episode per bag):
 
-* ``/uavK/state`` (required, K = 0, 1, ...): exact ``[x, y, heading, bank]``; the start pose
-  then one message per decision (if the start pose is missing, the first transition is).
+* ``/uavK/state_stamped`` (preferred) or ``/uavK/state`` (K = 0, 1, ...): exact
+  ``[x, y, heading, bank]``. Stamped states are placed by their stamp (decision tick =
+  (stamp - stamp of the first fire map) / 0.1 s, the start pose at tick 0); the unstamped
+  ``state`` stream is taken in order (start pose, if recorded, then one per decision; without
+  the start pose the first transition is lost). Every aircraft must have every tick.
 * ``/uavK/bank_cmd`` (optional): the bank commanded at each decision; the action is the sign
   of its change from the previous bank (at the +-50 degree limit an unchanged bank means the
   action towards the limit, which SPEC 2.2 ignores). Without it, banks of the states are used.
@@ -46,10 +49,15 @@ from wildfire_learning.replay import ImageCodec
 from wildfire_msgs_py import codecs, contract
 from wildfire_msgs_py.bag import bag_info, read_messages
 from wildfire_msgs_py.errors import WildfireRosError
+from wildfire_msgs_py.system_codecs import stamped_state_from_msg
 from wildfire_sim.grid import GRID_SIZE
 
 FIRE_STEP_NS = 2_500_000_000
 """Fire step period in nanoseconds (stamps of the fire maps)."""
+DECISION_NS = 100_000_000
+"""Decision period in nanoseconds (stamps of the stamped states)."""
+STAMPED_STATE = "state_stamped"
+"""Per-aircraft topic of the exact state with its sim-time stamp (sensor_msgs/JointState)."""
 
 
 class Recording(NamedTuple):
@@ -105,6 +113,28 @@ def _place_fire_maps(maps: list[tuple[int, np.ndarray]], bag: Path) -> list[np.n
     return [grid for _, grid in maps]
 
 
+def _place_stamped_states(
+    stamps: list[list[int]], states: list[list[np.ndarray]], start_ns: int, bag: Path
+) -> tuple[np.ndarray, int]:
+    """(T + 1, N, 4) states over the ticks every aircraft has, and the first tick."""
+    by_tick: list[dict[int, np.ndarray]] = []
+    for aircraft_stamps, aircraft_states in zip(stamps, states, strict=True):
+        if not aircraft_stamps:
+            raise LearningError(f"bag {bag}: an aircraft has no state message")
+        ticks = [round((stamp - start_ns) / DECISION_NS) for stamp in aircraft_stamps]
+        by_tick.append(dict(zip(ticks, aircraft_states, strict=True)))
+    first = max(min(ticks) for ticks in by_tick)
+    last = min(max(ticks) for ticks in by_tick)
+    missing = [t for t in range(first, last + 1) if any(t not in ticks for ticks in by_tick)]
+    if first < 0 or missing:
+        raise LearningError(
+            f"bag {bag}: states of decision ticks {missing[:5] or [first]} missing or before "
+            "the first fire map"
+        )
+    array = np.array([[ticks[t] for ticks in by_tick] for t in range(first, last + 1)])
+    return array.reshape(-1, len(by_tick), 4), first
+
+
 def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
     """Read the topics of one episode; raise :class:`LearningError` on bad or missing input."""
     bag = Path(bag_dir)
@@ -127,7 +157,10 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
             f"bag {bag}: missing topic {', '.join(missing) or '/uavK/state (numbering)'} "
             f"(expected {expected} as recorded by `wildfire run --record`)"
         )
-    state_topics = {contract.STATE.resolve(k): k for k in aircraft}
+    stamped_topics = {f"{contract.aircraft_namespace(k)}/{STAMPED_STATE}": k for k in aircraft}
+    use_stamped = all(t in topics for t in stamped_topics)
+    state_topics = stamped_topics if use_stamped else {
+        contract.STATE.resolve(k): k for k in aircraft}
     cmd_topics = {contract.BANK_CMD.resolve(k): k for k in aircraft}
     use_cmds = all(t in topics for t in cmd_topics)
     wanted = [contract.FIRE_MAP.name, *state_topics] + (list(cmd_topics) if use_cmds else [])
@@ -136,12 +169,19 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
 
     fire: list[tuple[int, np.ndarray]] = []
     states: list[list[np.ndarray]] = [[] for _ in aircraft]
+    stamps: list[list[int]] = [[] for _ in aircraft]
     cmds: list[list[float]] = [[] for _ in aircraft]
     belief: np.ndarray | None = None
     try:
         for record in read_messages(bag, wanted):
             if record.topic in state_topics:
-                states[state_topics[record.topic]].append(codecs.state_from_msg(record.message))
+                k = state_topics[record.topic]
+                if use_stamped:
+                    stamp, values = stamped_state_from_msg(record.message)
+                    stamps[k].append(stamp)
+                    states[k].append(values)
+                else:
+                    states[k].append(codecs.state_from_msg(record.message))
             elif record.topic in cmd_topics:
                 cmds[cmd_topics[record.topic]].append(codecs.bank_cmd_from_msg(record.message))
             elif record.topic == contract.FIRE_MAP.name:
@@ -156,6 +196,17 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
         raise LearningError(str(error)) from None
     if not fire:
         raise LearningError(f"bag {bag}: no message on /wildfire/fire_map")
+
+    if use_stamped:
+        state_array, first = _place_stamped_states(stamps, states, fire[0][0], bag)
+        decisions = len(state_array) - 1
+        cmd_array = None
+        if use_cmds and min(len(c) for c in cmds) >= first + decisions:
+            # Command i is that of decision i + 1.
+            cmd_array = np.array([c[first : first + decisions] for c in cmds]).T
+        if decisions < 1:
+            raise LearningError(f"bag {bag}: fewer than two poses per aircraft")
+        return Recording(_place_fire_maps(fire, bag), state_array, first, cmd_array, belief)
 
     # Align the aircraft: the same number of poses (a Ctrl-C may cut one stream short).
     poses = min(len(s) for s in states)
