@@ -103,7 +103,9 @@ def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> 
     np.testing.assert_allclose(np.array(loaded["q"]), expected.numpy(), rtol=1e-5, atol=1e-6)
 
 
-def test_bad_inputs_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_bad_inputs_are_one_line_errors(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     run_dir = tmp_path / "run"
     run_json("--approach", "obs", *TINY, "--iterations", "2", "--run-dir", str(run_dir))
     cases = [
