@@ -75,6 +75,11 @@ def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> 
     weights = "head.4.weight"
     assert not torch.equal(before["q_network"][weights], after["q_network"][weights])
 
+    # Every evaluation exported the network; the best-scoring one is kept too.
+    best = json.loads((run_dir / "best_obs_policy.json").read_text())
+    assert best["evaluation"]["score_mean"] == max(
+        r["score_mean"] for r in second["learning_curve"])
+
     # The export opens with plain torch (no project module imported) ...
     policy = run_dir / "obs_policy.pt"
     images = (np.random.default_rng(0).random((3, 1, 30, 40)) < 0.3).astype(np.float32)

@@ -382,6 +382,43 @@ def write_curve(run_dir: Path, rows: list[dict[str, float]], baseline: float | N
     plt.close(fig)
 
 
+def policy_card(
+    config: TrainConfig, state: TrainState, options: RunOptions, bag_transitions: int
+) -> dict[str, Any]:
+    """The JSON card of an exported policy: what was trained, how long, how well it scored."""
+    final = state.curve[-1]
+    return {
+        "approach": config.approach,
+        "arch": config.arch,
+        "format": "pairwise Q-network: forward(images (B,C,H,W), states (B,K,5)) -> (B,K,2)",
+        "image_shape": list(IMAGE_SHAPES[config.approach]),
+        "actions": ["bank -5 deg", "bank +5 deg"],
+        "config": asdict(config),
+        "iterations": state.iterations,
+        "samples": state.samples,
+        "wall_time_s": round(state.wall_time_s, 1),
+        "trained_from_bags": [str(p) for p in options.bag_dirs],
+        "bag_transitions": bag_transitions,
+        "offline": options.offline,
+        "evaluation": {
+            "protocol": "SPEC 2.7 team belief reward, greedy network, batched",
+            "iteration": int(final["iteration"]),
+            "shapes": list(config.eval_shapes),
+            "seeds": [config.eval_seeds()[0], config.eval_seeds()[-1]],
+            "episodes": int(final["episodes"]),
+            "score_mean": final["score_mean"],
+            "score_sem": final["score_sem"],
+            "belief_iou_mean": final["belief_iou_mean"],
+            "receding_horizon_score": options.baseline_score,
+        },
+        "learning_curve": [
+            {"iteration": r["iteration"], "score_mean": r["score_mean"],
+             "score_sem": r["score_sem"]}
+            for r in state.curve
+        ],
+    }
+
+
 # ------------------------------------------------------------------------- training
 @dataclass
 class TrainResult:
@@ -509,6 +546,14 @@ def train(
             "episodes": int(summary["episodes"]),
         })
         write_curve(run_dir, state.curve, options.baseline_score, f"{approach} DQN")
+        # The latest evaluated network is always on disk (`wildfire eval` it mid-run), and
+        # the best-scoring one is kept beside it.
+        state.wall_time_s = wall_before + time.perf_counter() - session_start
+        card = policy_card(config, state, options, bag_transitions)
+        export_policy(q_network, options.out, card)
+        best = max(r["score_mean"] for r in state.curve)
+        if last_score >= best:
+            export_policy(q_network, options.out.with_name("best_" + options.out.name), card)
 
     def train_step() -> None:
         state.last_loss = td_update(q_network, target_network, optimizer, replay, config, rng)
@@ -612,36 +657,7 @@ def train(
     if not state.curve or state.curve[-1]["iteration"] != state.iterations:
         run_evaluation()
     checkpoint()
-    final = state.curve[-1]
-    card = {
-        "approach": approach,
-        "arch": config.arch,
-        "format": "pairwise Q-network: forward(images (B,C,H,W), states (B,K,5)) -> (B,K,2)",
-        "image_shape": list(IMAGE_SHAPES[approach]),
-        "actions": ["bank -5 deg", "bank +5 deg"],
-        "config": asdict(config),
-        "iterations": state.iterations,
-        "samples": state.samples,
-        "wall_time_s": round(state.wall_time_s, 1),
-        "trained_from_bags": [str(p) for p in options.bag_dirs],
-        "bag_transitions": bag_transitions,
-        "offline": options.offline,
-        "evaluation": {
-            "protocol": "SPEC 2.7 team belief reward, greedy network, batched",
-            "shapes": list(config.eval_shapes),
-            "seeds": [config.eval_seeds()[0], config.eval_seeds()[-1]],
-            "episodes": int(final["episodes"]),
-            "score_mean": final["score_mean"],
-            "score_sem": final["score_sem"],
-            "belief_iou_mean": final["belief_iou_mean"],
-            "receding_horizon_score": options.baseline_score,
-        },
-        "learning_curve": [
-            {"iteration": r["iteration"], "score_mean": r["score_mean"],
-             "score_sem": r["score_sem"]}
-            for r in state.curve
-        ],
-    }
+    card = policy_card(config, state, options, bag_transitions)
     export_policy(q_network, options.out, card)
     (run_dir / "train_summary.json").write_text(json.dumps(card, indent=2, default=str) + "\n")
     return TrainResult(
@@ -674,6 +690,7 @@ __all__ = [
     "greedy_actions",
     "linear_schedule",
     "load_checkpoint",
+    "policy_card",
     "save_checkpoint",
     "target_iterations",
     "td_update",
