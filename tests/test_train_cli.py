@@ -108,6 +108,15 @@ def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> 
     np.testing.assert_allclose(np.array(loaded["q"]), expected.numpy(), rtol=1e-5, atol=1e-6)
 
 
+def test_help_lists_every_hyperparameter() -> None:
+    done = wildfire_train("--help", timeout=60)
+    assert done.returncode == 0, done.stderr
+    for option in ("--total-samples", "--iterations", "--num-envs", "--lr", "--buffer-size",
+                   "--learning-starts", "--train-frequency", "--exploration-samples",
+                   "--target-network-frequency", "--from-bag", "--resume", "--baseline"):
+        assert option in done.stdout, option
+
+
 def test_bad_inputs_are_one_line_errors(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

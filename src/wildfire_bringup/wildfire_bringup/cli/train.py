@@ -78,7 +78,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     defaults = TrainConfig()
     for spec in fields(TrainConfig):
         default = getattr(defaults, spec.name)
-        help_text = f"{docs.get(spec.name, '')} (default: {default})"
+        # argparse %-formats help strings: escape the docstrings' own percent signs.
+        help_text = f"{docs.get(spec.name, '')} (default: {default})".replace("%", "%%")
         option = _option(spec.name)
         common: dict[str, Any] = {"dest": spec.name, "default": None, "help": help_text}
         # Defaults stay None so a resumed run keeps its saved values unless overridden.
