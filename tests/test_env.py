@@ -97,9 +97,9 @@ def test_bad_configuration_is_named():
 
 
 def test_receding_horizon_beats_random():
-    config = EnvConfig(n_aircraft=2, max_duration_s=90.0)
-    seeds = list(range(500, 506))
+    config = EnvConfig(n_aircraft=2, max_duration_s=60.0)
+    seeds = list(range(500, 504))
     rh = evaluate(make_controller("rh"), config, seeds, "rh")
     random = evaluate(make_controller("random"), config, seeds, "random")
     assert rh.scores.mean() > 1.5 * random.scores.mean()
-    assert (rh.scores >= random.scores).sum() >= 5
+    assert (rh.scores >= random.scores).sum() >= 3
