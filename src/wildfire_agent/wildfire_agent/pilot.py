@@ -23,7 +23,11 @@ from wildfire_agent import pairwise, sensor
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
-from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonController
+from wildfire_agent.receding_horizon import (
+    RecedingHorizonConfig,
+    RecedingHorizonController,
+    replan_phases,
+)
 from wildfire_agent.rewards import FireFieldMaps, ObservationRewardWeights, fire_field_maps
 from wildfire_sim.seeding import Stream, generator
 
@@ -52,7 +56,9 @@ class Pilot:
         self.random: RandomPolicy | None = None
         self.network: TorchScriptPolicy | None = None
         if policy == "rh":
-            self.planner = RecedingHorizonController([rng], rh_config, self.weights)
+            rh_config = rh_config or RecedingHorizonConfig()
+            phase = replan_phases(np.array([aircraft]), n_aircraft, rh_config.replan_every)
+            self.planner = RecedingHorizonController([rng], rh_config, self.weights, phase)
             self.observation = "none"
         elif policy == "random":
             self.random = RandomPolicy([rng])

@@ -87,6 +87,16 @@ def _bank_sequences(bank_steps: np.ndarray, actions: np.ndarray) -> np.ndarray:
 _BANK_LEVELS = np.arange(-MAX_BANK_STEPS, MAX_BANK_STEPS + 1)
 _TURN_RATE = turn_rate(_BANK_LEVELS * BANK_STEP_RAD)
 """Heading rate of each bank level (index bank_steps + 10)."""
+# One decision on an arc of rate w and radius R = v / w, in the frame of the heading before
+# it: A metres ahead and B metres to the left, A = R sin(w dt), B = R (1 - cos(w dt)).
+# Wings level: A = v dt, B = 0. Then dx = A cos(psi) - B sin(psi), dy = A sin(psi) + B cos(psi).
+_TURN_ANGLE = _TURN_RATE * DECISION_PERIOD_S
+_SAFE_RATE = np.where(_BANK_LEVELS != 0, _TURN_RATE, 1.0)
+_AHEAD_M = np.where(
+    _BANK_LEVELS != 0, SPEED_MPS / _SAFE_RATE * np.sin(_TURN_ANGLE), SPEED_MPS * DECISION_PERIOD_S
+)
+_LEFT_M = np.where(_BANK_LEVELS != 0, SPEED_MPS / _SAFE_RATE * (1.0 - np.cos(_TURN_ANGLE)), 0.0)
+_BANK_PENALTY_RAD2 = (_BANK_LEVELS * BANK_STEP_RAD) ** 2
 
 
 def score_sequences(
@@ -101,38 +111,22 @@ def score_sequences(
 
     ``others_xy`` are the predicted positions of the other aircraft, each (P, K, T).
     The trajectory is this planner's model of the dynamics: the same exact arcs as
-    ``dynamics.propagate``, but integrated for all T steps at once with cumulative sums
-    (no per-step heading wrap), which is ~10x faster than stepping and equally accurate.
+    ``dynamics.propagate``, but integrated for all T steps at once (per-bank-level arc
+    tables and cumulative sums, no per-step heading wrap), which is ~10x faster than
+    stepping and as accurate.
     """
     extra = (1,) * (actions.ndim - 2)
     own_x, own_y, own_heading, own_bank = (f.reshape(-1, *extra, 1) for f in own)
-    banks = _bank_sequences(own_bank[..., 0], actions)  # (P, ..., T)
-    rate = _TURN_RATE[banks + MAX_BANK_STEPS]
-    heading = np.concatenate(  # (P, ..., T + 1): before the first step, then after each
-        [
-            np.broadcast_to(own_heading, (*banks.shape[:-1], 1)),
-            own_heading + np.cumsum(rate * DECISION_PERIOD_S, axis=-1),
-        ],
-        axis=-1,
-    )
-    sin_heading, cos_heading = np.sin(heading), np.cos(heading)
-    turning = banks != 0
-    arc_radius = SPEED_MPS / np.where(turning, rate, 1.0)
-    step_m = SPEED_MPS * DECISION_PERIOD_S
-    dx = np.where(
-        turning,
-        arc_radius * (sin_heading[..., 1:] - sin_heading[..., :-1]),
-        step_m * cos_heading[..., :-1],
-    )
-    dy = np.where(
-        turning,
-        arc_radius * (cos_heading[..., :-1] - cos_heading[..., 1:]),
-        step_m * sin_heading[..., :-1],
-    )
-    x = own_x + np.cumsum(dx, axis=-1)
-    y = own_y + np.cumsum(dy, axis=-1)
+    level = _bank_sequences(own_bank[..., 0], actions) + MAX_BANK_STEPS  # (P, ..., T)
+    turned = np.cumsum(_TURN_ANGLE[level], axis=-1)
+    # Heading before each decision: the start heading, then after each turn but the last.
+    heading_before = own_heading + turned - _TURN_ANGLE[level]
+    sin_h, cos_h = np.sin(heading_before), np.cos(heading_before)
+    ahead, left = _AHEAD_M[level], _LEFT_M[level]
+    x = own_x + np.cumsum(ahead * cos_h - left * sin_h, axis=-1)
+    y = own_y + np.cumsum(ahead * sin_h + left * cos_h, axis=-1)
     reward = fire_terms(maps, np.broadcast_to(env.reshape(-1, *extra, 1), x.shape), x, y, weights)
-    reward -= weights.bank * (banks * BANK_STEP_RAD) ** 2
+    reward -= weights.bank * _BANK_PENALTY_RAD2[level]
     other_x, other_y = others_xy
     for k in range(other_x.shape[1]):
         ox = other_x[:, k].reshape(-1, *extra, other_x.shape[-1])
@@ -181,30 +175,68 @@ def plan(
     return np.take_along_axis(sequences, winner[:, None, None], axis=1)[:, 0]
 
 
+def replan_phases(aircraft: np.ndarray, n_aircraft: int, replan_every: int) -> np.ndarray:
+    """Decisions by which each aircraft's re-planning is staggered: ``k * tau // n``.
+
+    Everyone plans at decision 0; aircraft k then flies only ``tau - phase_k`` decisions of
+    its first plan, so later plans of a team are spread over the tau decisions instead of
+    all falling on the same one (8 aircraft re-planning on the same tick would need 8 plans
+    within one 100 ms period on 2 cores).
+    """
+    return (np.asarray(aircraft, dtype=np.int64) * replan_every) // n_aircraft
+
+
 class RecedingHorizonController:
-    """Plans every tau decisions and flies the plan in between, for P aircraft at once."""
+    """Plans every tau decisions and flies the plan in between, for P aircraft at once.
+
+    ``phases`` (P,) staggers the aircraft (see :func:`replan_phases`); each aircraft plans
+    from its own generator, so its plans do not depend on which others plan with it.
+    """
 
     def __init__(
         self,
         generators: list[np.random.Generator],
         config: RecedingHorizonConfig | None = None,
         weights: ObservationRewardWeights | None = None,
+        phases: np.ndarray | None = None,
     ) -> None:
         self.generators = generators
         self.config = config or RecedingHorizonConfig()
         self.weights = weights or ObservationRewardWeights()
-        self._plan: np.ndarray | None = None
-        self._cursor = 0
+        count = len(generators)
+        self._plans = np.zeros((count, self.config.horizon), dtype=np.int64)
+        # Decisions flown from the current plan, and how many to fly before re-planning.
+        self._flown = np.zeros(count, dtype=np.int64)
+        phases = np.zeros(count, np.int64) if phases is None else np.asarray(phases, np.int64)
+        self._segment = self.config.replan_every - phases % self.config.replan_every
+        self._planned = False
 
     def act(
         self, own: AircraftState, others: AircraftState, env: np.ndarray, maps: FireFieldMaps
     ) -> np.ndarray:
         """Actions (P,) of the aircraft ``own`` (fields (P,)); others' fields are (P, K)."""
-        if self._plan is None or self._cursor >= self.config.replan_every:
-            self._plan = plan(own, others, env, maps, self.generators, self.config, self.weights)
-            self._cursor = 0
-        action = self._plan[:, self._cursor]
-        self._cursor += 1
+        due = (
+            np.ones(len(self.generators), bool)
+            if not self._planned
+            else (self._flown >= self._segment)
+        )
+        if due.any():
+            index = np.flatnonzero(due)
+            self._plans[index] = plan(
+                AircraftState(*(field[index] for field in own)),
+                AircraftState(*(field[index] for field in others)),
+                env[index],
+                maps,
+                [self.generators[i] for i in index.tolist()],
+                self.config,
+                self.weights,
+            )
+            if self._planned:
+                self._segment[index] = self.config.replan_every
+            self._flown[index] = 0
+            self._planned = True
+        action = self._plans[np.arange(len(self.generators)), self._flown]
+        self._flown += 1
         return action
 
 
@@ -213,5 +245,6 @@ __all__ = [
     "RecedingHorizonController",
     "plan",
     "predict_constant_bank",
+    "replan_phases",
     "score_sequences",
 ]

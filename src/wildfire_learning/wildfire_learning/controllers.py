@@ -17,7 +17,11 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.pairwise import other_indices
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
-from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonController
+from wildfire_agent.receding_horizon import (
+    RecedingHorizonConfig,
+    RecedingHorizonController,
+    replan_phases,
+)
 from wildfire_learning.env import WildfireVecEnv
 from wildfire_sim.seeding import Stream, generator
 
@@ -82,10 +86,12 @@ class RecedingHorizonEnvController:
         self.planner: RecedingHorizonController | None = None
 
     def reset(self, env: WildfireVecEnv) -> None:
+        n = env.config.n_aircraft
         self.planner = RecedingHorizonController(
-            aircraft_generators(env.seeds, env.config.n_aircraft),
+            aircraft_generators(env.seeds, n),
             self.config,
             env.config.obs_weights,
+            phases=np.tile(replan_phases(np.arange(n), n, self.config.replan_every), env.num_envs),
         )
 
     def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
