@@ -34,8 +34,12 @@ def build_system(rt: Any, seed: int, n: int, duration: float, policy: str) -> li
     nodes = [
         FireSimulatorNode(
             parameter_overrides=params(
-                seed=seed, shape="circular", wind_x=float(scenario.wind[0]),
-                wind_y=float(scenario.wind[1]), duration_s=duration, n_aircraft=n,
+                seed=seed,
+                shape="circular",
+                wind_x=float(scenario.wind[0]),
+                wind_y=float(scenario.wind[1]),
+                duration_s=duration,
+                n_aircraft=n,
             )
         ),
         BeliefAggregatorNode(parameter_overrides=params(seed=seed, shape="circular", n_aircraft=n)),
@@ -45,8 +49,12 @@ def build_system(rt: Any, seed: int, n: int, duration: float, policy: str) -> li
             AgentNode(
                 namespace=f"/uav{k}",
                 parameter_overrides=params(
-                    aircraft=k, n_aircraft=n, seed=seed, policy=policy,
-                    start_x=float(scenario.start.x_m[k]), start_y=float(scenario.start.y_m[k]),
+                    aircraft=k,
+                    n_aircraft=n,
+                    seed=seed,
+                    policy=policy,
+                    start_x=float(scenario.start.x_m[k]),
+                    start_y=float(scenario.start.y_m[k]),
                     start_heading=float(scenario.start.heading_rad[k]),
                 ),
             )

@@ -24,7 +24,9 @@ WILDFIRE = [str(Path(sys.executable).parent / "wildfire")]
 
 def children_of(pid: int) -> list[int]:
     """PIDs of the node processes a launcher started."""
-    out = subprocess.run(["ps", "-eww", "-o", "pid,ppid,args"], capture_output=True, text=True).stdout
+    out = subprocess.run(
+        ["ps", "-eww", "-o", "pid,ppid,args"], capture_output=True, text=True
+    ).stdout
     rows = [line.split(None, 2) for line in out.splitlines()[1:]]
     return [int(r[0]) for r in rows if len(r) == 3 and int(r[1]) == pid and "_node" in r[2]]
 
@@ -35,8 +37,12 @@ def alive(pids: list[int]) -> list[int]:
     return [p for p in pids if p in running]
 
 
-def run_cli(args: list[str], env: dict[str, str], timeout: float = 150) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([*WILDFIRE, *args], env=env, capture_output=True, text=True, timeout=timeout)
+def run_cli(
+    args: list[str], env: dict[str, str], timeout: float = 150
+) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [*WILDFIRE, *args], env=env, capture_output=True, text=True, timeout=timeout
+    )
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +60,9 @@ def obs_policy(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("policy", "n", "duration"), [("rh", 3, 30.0), ("random", 2, 30.0), ("obs", 2, 20.0)])
+@pytest.mark.parametrize(
+    ("policy", "n", "duration"), [("rh", 3, 30.0), ("random", 2, 30.0), ("obs", 2, 20.0)]
+)
 def test_lockstep_run_equals_evaluate(
     tmp_path: Path, dds_env: dict[str, str], obs_policy: Path, policy: str, n: int, duration: float
 ) -> None:
@@ -66,14 +74,32 @@ def test_lockstep_run_equals_evaluate(
     seed = 5
     bag = tmp_path / "bag"
     result = run_cli(
-        ["run", "--aircraft", str(n), "--policy", name, "--seed", str(seed), "--duration",
-         str(duration), "--fast", "--json", "--record", str(bag), "--png", str(tmp_path / "r.png"),
-         "--wind", "0.3,-0.2"],
+        [
+            "run",
+            "--aircraft",
+            str(n),
+            "--policy",
+            name,
+            "--seed",
+            str(seed),
+            "--duration",
+            str(duration),
+            "--fast",
+            "--json",
+            "--record",
+            str(bag),
+            "--png",
+            str(tmp_path / "r.png"),
+            "--wind",
+            "0.3,-0.2",
+        ],
         dds_env,
     )
     assert result.returncode == 0, result.stderr
     summary = json.loads(result.stdout)
-    config = EnvConfig(n_aircraft=n, shapes=("circular",), wind=(0.3, -0.2), max_duration_s=duration)
+    config = EnvConfig(
+        n_aircraft=n, shapes=("circular",), wind=(0.3, -0.2), max_duration_s=duration
+    )
     reference = evaluate(make_controller(name), config, [seed], record=True).episodes[0]
     assert summary["score"] == reference.score
     assert summary["decisions"] == reference.decisions
@@ -83,7 +109,9 @@ def test_lockstep_run_equals_evaluate(
     # The recording holds every exact state: the flight paths equal the environment's.
     states: dict[str, dict[int, np.ndarray]] = {}
     scores = []
-    for message in read_messages(bag, topics=[f"/uav{k}/state_stamped" for k in range(n)] + ["/wildfire/score"]):
+    for message in read_messages(
+        bag, topics=[f"/uav{k}/state_stamped" for k in range(n)] + ["/wildfire/score"]
+    ):
         if message.topic == "/wildfire/score":
             scores.append(score_from_msg(message.message))
             continue
@@ -97,8 +125,23 @@ def test_lockstep_run_equals_evaluate(
 
 
 def test_realtime_smoke(tmp_path: Path, dds_env: dict[str, str]) -> None:
-    result = run_cli(["run", "--aircraft", "2", "--policy", "rh", "--duration", "4", "--realtime",
-                      "--json", "--seed", "2"], dds_env, timeout=60)
+    result = run_cli(
+        [
+            "run",
+            "--aircraft",
+            "2",
+            "--policy",
+            "rh",
+            "--duration",
+            "4",
+            "--realtime",
+            "--json",
+            "--seed",
+            "2",
+        ],
+        dds_env,
+        timeout=60,
+    )
     assert result.returncode == 0, result.stderr
     summary = json.loads(result.stdout)
     assert summary["mode"] == "realtime" and summary["decisions"] == 40
@@ -106,11 +149,16 @@ def test_realtime_smoke(tmp_path: Path, dds_env: dict[str, str]) -> None:
     assert 3.5 < summary["wall_time_s"] < 30
 
 
-def _start_run(tmp_path: Path, env: dict[str, str], extra: list[str]) -> tuple[subprocess.Popen[str], Path]:
+def _start_run(
+    tmp_path: Path, env: dict[str, str], extra: list[str]
+) -> tuple[subprocess.Popen[str], Path]:
     logs = tmp_path / "logs"
     process = subprocess.Popen(
         [*WILDFIRE, "run", "--aircraft", "2", "--policy", "random", "--log-dir", str(logs), *extra],
-        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     return process, logs
 
@@ -129,7 +177,9 @@ def _pid_of(logs: Path, node: str, timeout: float = 20.0) -> int:
     """PID of a node started by the launcher (found by its log file and command line)."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
-        out = subprocess.run(["ps", "-eww", "-o", "pid,args"], capture_output=True, text=True).stdout
+        out = subprocess.run(
+            ["ps", "-eww", "-o", "pid,args"], capture_output=True, text=True
+        ).stdout
         if (logs / f"{node}.log").exists():
             for line in out.splitlines():
                 if node == "uav1" and "agent_node" in line and "__ns:=/uav1" in line:
@@ -140,11 +190,15 @@ def _pid_of(logs: Path, node: str, timeout: float = 20.0) -> int:
     raise AssertionError(f"{node} did not start")
 
 
-def test_killed_node_is_named_and_the_bag_is_finalized(tmp_path: Path, dds_env: dict[str, str]) -> None:
+def test_killed_node_is_named_and_the_bag_is_finalized(
+    tmp_path: Path, dds_env: dict[str, str]
+) -> None:
     from wildfire_msgs_py.bag import bag_info
 
     bag = tmp_path / "bag"
-    process, logs = _start_run(tmp_path, dds_env, ["--realtime", "--duration", "60", "--record", str(bag)])
+    process, logs = _start_run(
+        tmp_path, dds_env, ["--realtime", "--duration", "60", "--record", str(bag)]
+    )
     try:
         pid = _pid_of(logs, "uav1")
         time.sleep(2.0)
@@ -201,8 +255,19 @@ def test_bad_params_file(tmp_path: Path, dds_env: dict[str, str]) -> None:
     assert result.returncode == 2 and "malformed YAML" in result.stderr
     unknown = tmp_path / "unknown.yaml"
     unknown.write_text("/fire_simulator:\n  ros__parameters:\n    sed: 3\n")
-    result = run_cli(["run", "--duration", "5", "--params-file", str(unknown), "--log-dir",
-                      str(tmp_path / "logs")], dds_env, timeout=60)
+    result = run_cli(
+        [
+            "run",
+            "--duration",
+            "5",
+            "--params-file",
+            str(unknown),
+            "--log-dir",
+            str(tmp_path / "logs"),
+        ],
+        dds_env,
+        timeout=60,
+    )
     assert result.returncode == 2
     assert "node fire_simulator died (exit status 2)" in result.stderr
     assert "unknown parameter 'sed'" in result.stderr
@@ -211,12 +276,18 @@ def test_bad_params_file(tmp_path: Path, dds_env: dict[str, str]) -> None:
 def test_node_rejects_out_of_range_parameter_and_bad_policy(dds_env: dict[str, str]) -> None:
     result = subprocess.run(
         [sys.executable, "-m", "wildfire_agent.agent_node", "--ros-args", "-p", "n_aircraft:=0"],
-        env=dds_env, capture_output=True, text=True, timeout=60,
+        env=dds_env,
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
     assert result.returncode == 2 and "out of range" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
     result = subprocess.run(
         [sys.executable, "-m", "wildfire_agent.agent_node", "--ros-args", "-p", "policy:=/nope.pt"],
-        env=dds_env, capture_output=True, text=True, timeout=60,
+        env=dds_env,
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
     assert result.returncode == 2 and "/nope.pt: no such file" in result.stderr

@@ -23,7 +23,10 @@ setup(
     zip_safe=True,
     maintainer="Wildfire surveillance maintainers",
     maintainer_email="wildfire@example.org",
-    description="Dubins aircraft, sensor model, rewards, policies (TorchScript, receding horizon, random) and the agent node.",
+    description=(
+        "Dubins aircraft, sensor model, rewards, policies (TorchScript, "
+        "receding horizon, random) and the agent node."
+    ),
     license="Apache-2.0",
     entry_points={
         "console_scripts": [

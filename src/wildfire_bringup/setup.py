@@ -1,27 +1,34 @@
 from setuptools import find_packages, setup
 
-package_name = 'wildfire_bringup'
+package_name = "wildfire_bringup"
 
 setup(
     name=package_name,
-    version='0.1.0',
-    packages=find_packages(exclude=['test']),
-    package_data={package_name: ['py.typed']},
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    package_data={package_name: ["py.typed"]},
     data_files=[
-        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
-        ('share/' + package_name, ['package.xml']),
-        ('share/' + package_name + '/launch', ['launch/wildfire_launch.py']),
-        ('share/' + package_name + '/config', ['config/wildfire.yaml']),
+        ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
+        ("share/" + package_name, ["package.xml"]),
+        ("share/" + package_name + "/launch", ["launch/wildfire_launch.py"]),
+        ("share/" + package_name + "/config", ["config/wildfire.yaml"]),
     ],
-    install_requires=['setuptools', 'pyyaml', 'rich', 'wildfire_msgs_py', 'wildfire_sim', 'wildfire_belief', 'wildfire_agent', 'wildfire_learning'],
+    install_requires=[
+        "setuptools",
+        "pyyaml",
+        "rich",
+        "wildfire_msgs_py",
+        "wildfire_sim",
+        "wildfire_belief",
+        "wildfire_agent",
+        "wildfire_learning",
+    ],
     zip_safe=True,
-    maintainer='Wildfire surveillance maintainers',
-    maintainer_email='wildfire@example.org',
-    description='The wildfire command-line tool, launch files and default parameters.',
-    license='Apache-2.0',
+    maintainer="Wildfire surveillance maintainers",
+    maintainer_email="wildfire@example.org",
+    description="The wildfire command-line tool, launch files and default parameters.",
+    license="Apache-2.0",
     entry_points={
-        'console_scripts': [
-            'wildfire = wildfire_bringup.cli:main'
-        ],
+        "console_scripts": ["wildfire = wildfire_bringup.cli:main"],
     },
 )

@@ -1,25 +1,35 @@
 from setuptools import find_packages, setup
 
-package_name = 'wildfire_learning'
+package_name = "wildfire_learning"
 
 setup(
     name=package_name,
-    version='0.1.0',
-    packages=find_packages(exclude=['test']),
-    package_data={package_name: ['py.typed']},
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    package_data={package_name: ["py.typed"]},
     data_files=[
-        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
-        ('share/' + package_name, ['package.xml']),
+        ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
+        ("share/" + package_name, ["package.xml"]),
     ],
-    install_requires=['setuptools', 'numpy', 'torch', 'matplotlib', 'rich', 'wildfire_msgs_py', 'wildfire_sim', 'wildfire_belief', 'wildfire_agent'],
+    install_requires=[
+        "setuptools",
+        "numpy",
+        "torch",
+        "matplotlib",
+        "rich",
+        "wildfire_msgs_py",
+        "wildfire_sim",
+        "wildfire_belief",
+        "wildfire_agent",
+    ],
     zip_safe=True,
-    maintainer='Wildfire surveillance maintainers',
-    maintainer_email='wildfire@example.org',
-    description='Batched multi-agent wildfire environment, DQN training, bag replay and evaluation.',
-    license='Apache-2.0',
+    maintainer="Wildfire surveillance maintainers",
+    maintainer_email="wildfire@example.org",
+    description=(
+        "Batched multi-agent wildfire environment, DQN training, bag replay and evaluation."
+    ),
+    license="Apache-2.0",
     entry_points={
-        'console_scripts': [
-
-        ],
+        "console_scripts": [],
     },
 )

@@ -12,41 +12,75 @@ import math
 import os
 
 from ament_index_python.packages import get_package_share_directory
-from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
+from launch import LaunchDescription
 
-def _nodes(context, *_args, **_kwargs):  # noqa: ANN001, ANN202 (launch API)
+
+def _nodes(context, *_args, **_kwargs):
     n = int(LaunchConfiguration("n_aircraft").perform(context))
     policy = LaunchConfiguration("policy").perform(context)
     seed = int(LaunchConfiguration("seed").perform(context))
-    params = os.path.join(get_package_share_directory("wildfire_bringup"), "config", "wildfire.yaml")
+    params = os.path.join(
+        get_package_share_directory("wildfire_bringup"), "config", "wildfire.yaml"
+    )
     common = {"mode": "realtime", "seed": seed}
     nodes = [
-        Node(package="wildfire_sim", executable="fire_simulator", name="fire_simulator",
-             parameters=[params, {**common, "n_aircraft": n}], output="screen"),
-        Node(package="wildfire_belief", executable="belief_aggregator", name="belief_aggregator",
-             parameters=[params, {**common, "n_aircraft": n}], output="screen"),
+        Node(
+            package="wildfire_sim",
+            executable="fire_simulator",
+            name="fire_simulator",
+            parameters=[params, {**common, "n_aircraft": n}],
+            output="screen",
+        ),
+        Node(
+            package="wildfire_belief",
+            executable="belief_aggregator",
+            name="belief_aggregator",
+            parameters=[params, {**common, "n_aircraft": n}],
+            output="screen",
+        ),
     ]
     for k in range(n):
         bearing = 2.0 * math.pi * k / n
         nodes.append(
-            Node(package="wildfire_agent", executable="agent", name="agent", namespace=f"uav{k}",
-                 output="screen",
-                 parameters=[params, {**common, "aircraft": k, "n_aircraft": n, "policy": policy,
-                                      "start_x": 500.0 + 250.0 * math.cos(bearing),
-                                      "start_y": 500.0 + 250.0 * math.sin(bearing),
-                                      "start_heading": bearing + math.pi / 2}]))
+            Node(
+                package="wildfire_agent",
+                executable="agent",
+                name="agent",
+                namespace=f"uav{k}",
+                output="screen",
+                parameters=[
+                    params,
+                    {
+                        **common,
+                        "aircraft": k,
+                        "n_aircraft": n,
+                        "policy": policy,
+                        "start_x": 500.0 + 250.0 * math.cos(bearing),
+                        "start_y": 500.0 + 250.0 * math.sin(bearing),
+                        "start_heading": bearing + math.pi / 2,
+                    },
+                ],
+            )
+        )
     return nodes
 
 
 def generate_launch_description() -> LaunchDescription:
-    return LaunchDescription([
-        DeclareLaunchArgument("n_aircraft", default_value="2", description="number of aircraft"),
-        DeclareLaunchArgument("policy", default_value="rh",
-                              description="rh, random or the path of a TorchScript .pt policy"),
-        DeclareLaunchArgument("seed", default_value="0", description="episode seed"),
-        OpaqueFunction(function=_nodes),
-    ])
+    return LaunchDescription(
+        [
+            DeclareLaunchArgument(
+                "n_aircraft", default_value="2", description="number of aircraft"
+            ),
+            DeclareLaunchArgument(
+                "policy",
+                default_value="rh",
+                description="rh, random or the path of a TorchScript .pt policy",
+            ),
+            DeclareLaunchArgument("seed", default_value="0", description="episode seed"),
+            OpaqueFunction(function=_nodes),
+        ]
+    )

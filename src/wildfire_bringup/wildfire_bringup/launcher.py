@@ -15,6 +15,7 @@ from its last published state, the aggregator recovers the belief from the agent
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -214,10 +215,8 @@ class Launcher:
         """SIGINT every child, then SIGKILL what is left after ``timeout_s``."""
         for process in self.processes.values():
             if process.poll() is None:
-                try:
+                with contextlib.suppress(ProcessLookupError):
                     os.killpg(process.pid, signal.SIGINT)
-                except ProcessLookupError:
-                    pass
         end = time.monotonic() + timeout_s
         for process in self.processes.values():
             try:

@@ -18,9 +18,16 @@ from wildfire_learning.env import EnvConfig, draw_scenario
 def _spec(n: int, duration: float, lockstep: bool, seed: int = 1_000_000) -> RunSpec:
     scenario = draw_scenario(seed, EnvConfig(n_aircraft=n, max_duration_s=duration))
     start = np.stack([scenario.start.x_m, scenario.start.y_m, scenario.start.heading_rad], axis=1)
-    return RunSpec(n_aircraft=n, policy="rh", shape="circular",
-                   wind=(float(scenario.wind[0]), float(scenario.wind[1])), seed=seed,
-                   duration_s=duration, start=start, lockstep=lockstep)
+    return RunSpec(
+        n_aircraft=n,
+        policy="rh",
+        shape="circular",
+        wind=(float(scenario.wind[0]), float(scenario.wind[1])),
+        seed=seed,
+        duration_s=duration,
+        start=start,
+        lockstep=lockstep,
+    )
 
 
 def bench_system(quick: bool = False) -> dict[str, Any]:

@@ -193,7 +193,7 @@ def summarise(spec: Any, monitor: Any, wall_s: float) -> dict[str, Any]:
         "seed": spec.seed,
         "wind": list(spec.wind),
         "mode": spec.mode,
-        "score": int(round(monitor.score)),
+        "score": round(monitor.score),
         "decisions": decisions,
         "flight_time_s": decisions / 10.0,
         "end": status.phase if status is not None else "unknown",
@@ -243,7 +243,7 @@ def run(args: argparse.Namespace) -> int:
     launcher = Launcher(spec)
     # `kill`/`timeout` stop the run like Ctrl-C: children stopped, recording finalized.
     signal.signal(signal.SIGTERM, _raise_interrupt)
-    total = int(round(args.duration * 10))
+    total = round(args.duration * 10)
     label = f"run {args.policy} ({spec.mode})"
     try:
         with progress_bar(label, total, enabled=not args.json) as bar:
