@@ -19,6 +19,9 @@ os.environ["CYCLONEDDS_URI"] = LOOPBACK_CONFIG.as_uri()
 # so a test session uses 1..100, derived from its process id.
 os.environ["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 100)
 os.environ.setdefault("WILDFIRE_ROS_BACKEND", "auto")
+# One intra-op thread per process (as the `wildfire` command sets): tests start many
+# processes on two cores, where OpenMP's spinning threads would slow everything down.
+os.environ.setdefault("OMP_NUM_THREADS", "1")
 # Matplotlib must never try to open a window in tests or CI.
 os.environ.setdefault("MPLBACKEND", "Agg")
 
