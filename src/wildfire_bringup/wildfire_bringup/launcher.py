@@ -176,6 +176,9 @@ class Launcher:
         self.monitor: RunMonitorNode | None = None
         self.executor: Any = None
         self.wall_s = 0.0
+        # Wall time from the first tick to the end of the episode: the speed of the running
+        # system, without process start-up (imports, DDS discovery) and shut-down.
+        self.flight_wall_s = 0.0
 
     # --- processes ----------------------------------------------------------------------------
 
@@ -250,9 +253,13 @@ class Launcher:
                 self.start_node(name, command)
             limit = timeout_s or (60.0 + 20.0 * self.spec.duration_s)
             last_check = 0.0
+            first_tick: float | None = None
             while not self.monitor.complete:
                 self.executor.spin_once(timeout_sec=0.05)
                 now = time.monotonic()
+                status = self.monitor.status
+                if first_tick is None and status is not None and status.tick >= 1:
+                    first_tick = now
                 if now - last_check > 0.2:
                     last_check = now
                     self.check_children()
@@ -260,6 +267,8 @@ class Launcher:
                         progress(max(self.monitor.status.tick, 0))
                 if now - start > limit:
                     raise NodeFailure(f"the episode did not end within {limit:.0f} s of wall time")
+            if first_tick is not None:
+                self.flight_wall_s = time.monotonic() - first_tick
             # The last belief, score and deadline messages may still be in flight.
             end = time.monotonic() + 0.5
             while time.monotonic() < end:

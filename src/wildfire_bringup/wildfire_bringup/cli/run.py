@@ -173,7 +173,7 @@ def build_spec(args: argparse.Namespace) -> Any:
     )
 
 
-def summarise(spec: Any, monitor: Any, wall_s: float) -> dict[str, Any]:
+def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> dict[str, Any]:
     """Summary metrics of a finished run (SPEC 2.7 score and trajectory-derived metrics)."""
     from wildfire_belief.belief import belief_iou, mean_age_at_burning
     from wildfire_sim.episode import initial_fire
@@ -198,7 +198,9 @@ def summarise(spec: Any, monitor: Any, wall_s: float) -> dict[str, Any]:
         "flight_time_s": decisions / 10.0,
         "end": status.phase if status is not None else "unknown",
         "wall_time_s": wall_s,
-        "speedup": (decisions / 10.0) / wall_s if wall_s > 0 else 0.0,
+        "flight_wall_time_s": flight_wall_s,
+        # Simulated over wall time from the first tick to the last (start-up excluded).
+        "speedup": (decisions / 10.0) / flight_wall_s if flight_wall_s > 0 else 0.0,
         "distance_flown_m": flown.tolist(),
         "trajectory_points": len(trajectory),
     }
@@ -251,7 +253,7 @@ def run(args: argparse.Namespace) -> int:
     except NodeFailure as error:
         where = f"; recording finalized in {spec.record_dir}" if spec.record_dir else ""
         raise UserError(f"{error}{where} (logs in {launcher.log_dir})") from None
-    result = summarise(spec, monitor, launcher.wall_s)
+    result = summarise(spec, monitor, launcher.wall_s, launcher.flight_wall_s)
     affected = result.pop("_affected", None)
     if spec.record_dir is not None:
         result["record"] = str(spec.record_dir)
