@@ -376,7 +376,7 @@ def write_curve(run_dir: Path, rows: list[dict[str, float]], baseline: float | N
         ax.axhline(baseline, ls="--", color="grey", label="receding horizon")
     ax.set_xlabel("Thousands of Training Iterations")
     ax.set_ylabel("Average Reward Accumulated")
-    ax.legend(loc="lower right")
+    ax.legend(loc="best")
     fig.tight_layout()
     fig.savefig(run_dir / CURVE_PNG, dpi=110)
     plt.close(fig)
