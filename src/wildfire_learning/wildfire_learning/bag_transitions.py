@@ -56,8 +56,6 @@ FIRE_STEP_NS = 2_500_000_000
 """Fire step period in nanoseconds (stamps of the fire maps)."""
 DECISION_NS = 100_000_000
 """Decision period in nanoseconds (stamps of the stamped states)."""
-STAMPED_STATE = "state_stamped"
-"""Per-aircraft topic of the exact state with its sim-time stamp (sensor_msgs/JointState)."""
 
 
 class Recording(NamedTuple):
@@ -157,7 +155,7 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
             f"bag {bag}: missing topic {', '.join(missing) or '/uavK/state (numbering)'} "
             f"(expected {expected} as recorded by `wildfire run --record`)"
         )
-    stamped_topics = {f"{contract.aircraft_namespace(k)}/{STAMPED_STATE}": k for k in aircraft}
+    stamped_topics = {contract.STATE_STAMPED.resolve(k): k for k in aircraft}
     use_stamped = all(t in topics for t in stamped_topics)
     state_topics = stamped_topics if use_stamped else {
         contract.STATE.resolve(k): k for k in aircraft}
