@@ -87,6 +87,36 @@ def wind_vector(text: str) -> tuple[float, float]:
     return wx, wy
 
 
+def add_episode_arguments(
+    parser: argparse.ArgumentParser, default_seed: int, seed_help: str
+) -> None:
+    """The scenario arguments ``eval`` and ``run`` share: policy, team, fire, seed, duration."""
+    parser.add_argument(
+        "--policy",
+        default="rh",
+        help="rh (receding horizon), random, obs, belief (shipped models) or a TorchScript .pt",
+    )
+    parser.add_argument("--aircraft", type=positive_int, default=2, metavar="N")
+    parser.add_argument("--shape", default="circular", help="circular, t or arc")
+    parser.add_argument(
+        "--wind",
+        type=wind_vector,
+        default=None,
+        metavar="WX,WY",
+        help="fixed wind; by default each seed draws it in [-0.8, 0.8]^2",
+    )
+    parser.add_argument(
+        "--seed", type=non_negative_int, default=default_seed, metavar="S", help=seed_help
+    )
+    parser.add_argument(
+        "--duration",
+        type=positive_float,
+        default=400.0,
+        metavar="SEC",
+        help="longest flight in seconds (the fire reaching the border ends it too)",
+    )
+
+
 def print_json(payload: dict[str, Any]) -> None:
     """Print a JSON summary on stdout (numpy scalars and arrays converted)."""
 

@@ -5,12 +5,9 @@ from __future__ import annotations
 import argparse
 
 from wildfire_bringup.cli.common import (
-    UserError,
-    non_negative_int,
-    positive_float,
+    add_episode_arguments,
     positive_int,
     print_json,
-    wind_vector,
 )
 from wildfire_bringup.cli.progress import progress_bar
 from wildfire_learning.controllers import make_controller
@@ -26,36 +23,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description="Fly a controller on episodes with seeds S0..S0+K-1 and report the team "
         "score (newly seen burning cells summed over the flight) and belief metrics.",
     )
-    parser.add_argument(
-        "--policy",
-        default="rh",
-        help="rh (receding horizon), random, obs, belief (shipped models) or a "
-        "TorchScript .pt file",
+    add_episode_arguments(
+        parser,
+        default_seed=1_000_000,
+        seed_help="first episode seed (default: the held-out evaluation range)",
     )
-    parser.add_argument("--aircraft", type=positive_int, default=2, metavar="N")
-    parser.add_argument("--shape", default="circular", help="circular, t or arc")
     parser.add_argument("--episodes", type=positive_int, default=20, metavar="K")
-    parser.add_argument(
-        "--seed",
-        type=non_negative_int,
-        default=1_000_000,
-        metavar="S0",
-        help="first episode seed (default: the held-out evaluation range)",
-    )
-    parser.add_argument(
-        "--duration",
-        type=positive_float,
-        default=400.0,
-        metavar="SEC",
-        help="longest flight in seconds (episodes also end when the fire reaches the border)",
-    )
-    parser.add_argument(
-        "--wind",
-        type=wind_vector,
-        default=None,
-        metavar="WX,WY",
-        help="fixed wind; by default each seed draws it in [-0.8, 0.8]^2",
-    )
     parser.add_argument("--png", metavar="FILE", help="draw the first episode")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
@@ -63,8 +36,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     shape = Shape.parse(args.shape)
-    if args.wind is not None and max(abs(args.wind[0]), abs(args.wind[1])) > 1.0:
-        raise UserError("--wind: components must be in [-1, 1]")
     controller = make_controller(args.policy)
     config = EnvConfig(
         n_aircraft=args.aircraft,

@@ -18,14 +18,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from wildfire_bringup.cli.common import (
-    UserError,
-    non_negative_int,
-    positive_float,
-    positive_int,
-    print_json,
-    wind_vector,
-)
+from wildfire_bringup.cli.common import UserError, add_episode_arguments, print_json
 from wildfire_bringup.cli.progress import progress_bar
 
 
@@ -37,28 +30,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "aircraft as separate processes, optionally recording every topic to a rosbag2 "
         "(MCAP) directory, and summarise the episode.",
     )
-    parser.add_argument("--aircraft", type=positive_int, default=2, metavar="N")
-    parser.add_argument(
-        "--policy",
-        default="rh",
-        help="obs, belief (shipped models), rh (receding horizon), random or a TorchScript .pt",
-    )
-    parser.add_argument("--shape", default="circular", help="circular, t or arc")
-    parser.add_argument(
-        "--wind",
-        type=wind_vector,
-        default=None,
-        metavar="WX,WY",
-        help="fixed wind; by default the seed draws it in [-0.8, 0.8]^2",
-    )
-    parser.add_argument("--seed", type=non_negative_int, default=0, metavar="S")
-    parser.add_argument(
-        "--duration",
-        type=positive_float,
-        default=400.0,
-        metavar="SEC",
-        help="longest flight in seconds (the fire reaching the border ends it too)",
-    )
+    add_episode_arguments(parser, default_seed=0, seed_help="episode seed")
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument(
         "--fast",
