@@ -24,6 +24,16 @@ def fire_state_image(burning: np.ndarray, affected: np.ndarray) -> np.ndarray:
     return np.where(burning, 2, np.where(affected, 1, 0))
 
 
+def _show_grid(ax: plt.Axes, grid: np.ndarray, **style: object) -> object:
+    """Draw a map-frame grid (row 0 at the south) over the 1 km square."""
+    return ax.imshow(grid, origin="lower", extent=EXTENT, interpolation="nearest", **style)
+
+
+def _show_fire(ax: plt.Axes, truth: np.ndarray, alpha: float = 1.0) -> None:
+    """Draw a ``fire_state_image``: unburnt, burnt out, burning."""
+    _show_grid(ax, truth, cmap=FIRE_COLOURS, vmin=0, vmax=2, alpha=alpha)
+
+
 def _map_axes(ax: plt.Axes, title: str) -> None:
     ax.set_title(title, fontsize=9)
     ax.set_xlim(0, MAP_SIZE_M)
@@ -41,25 +51,9 @@ def plot_fire_propagation(
     fig, axes = plt.subplots(len(frames), 2, figsize=(6, 2.9 * len(frames)), squeeze=False)
     for row, (step, burning, affected, fuel) in enumerate(frames):
         ax_fire, ax_fuel = axes[row]
-        ax_fire.imshow(
-            fire_state_image(burning, affected),
-            origin="lower",
-            extent=EXTENT,
-            cmap=FIRE_COLOURS,
-            vmin=0,
-            vmax=2,
-            interpolation="nearest",
-        )
+        _show_fire(ax_fire, fire_state_image(burning, affected))
         _map_axes(ax_fire, f"fire locations, t = {step * 2.5:.0f} s")
-        image = ax_fuel.imshow(
-            fuel,
-            origin="lower",
-            extent=EXTENT,
-            cmap="YlGn",
-            vmin=0,
-            vmax=22,
-            interpolation="nearest",
-        )
+        image = _show_grid(ax_fuel, fuel, cmap="YlGn", vmin=0, vmax=22)
         _map_axes(ax_fuel, "fuel map")
         fig.colorbar(image, ax=ax_fuel, fraction=0.046)
     fig.suptitle(title, fontsize=10)
@@ -79,36 +73,11 @@ def plot_episode(
     """True fire, shared belief, and flight paths over the fire; ``trajectory`` (T, N, 2)."""
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.6))
     truth = fire_state_image(burning, affected)
-    axes[0].imshow(
-        truth,
-        origin="lower",
-        extent=EXTENT,
-        cmap=FIRE_COLOURS,
-        vmin=0,
-        vmax=2,
-        interpolation="nearest",
-    )
+    _show_fire(axes[0], truth)
     _map_axes(axes[0], "true fire (red burning, grey burnt)")
-    axes[1].imshow(
-        believed,
-        origin="lower",
-        extent=EXTENT,
-        cmap="Reds",
-        vmin=0,
-        vmax=1.5,
-        interpolation="nearest",
-    )
+    _show_grid(axes[1], believed, cmap="Reds", vmin=0, vmax=1.5)
     _map_axes(axes[1], "shared belief (believed burning)")
-    axes[2].imshow(
-        truth,
-        origin="lower",
-        extent=EXTENT,
-        cmap=FIRE_COLOURS,
-        vmin=0,
-        vmax=2,
-        interpolation="nearest",
-        alpha=0.6,
-    )
+    _show_fire(axes[2], truth, alpha=0.6)
     colours = plt.cm.tab10(np.arange(trajectory.shape[1]) % 10)
     for k in range(trajectory.shape[1]):
         xy = trajectory[:, k]
