@@ -46,8 +46,14 @@ from wildfire_msgs_py.codecs import (
     time_from_msg,
     visit_to_msg,
 )
-from wildfire_msgs_py.node_support import ParamSpec, declare_parameters, run_node
-from wildfire_msgs_py.runtime import Node, get_message
+from wildfire_msgs_py.node_support import (
+    ParamSpec,
+    contract_publisher,
+    contract_subscription,
+    declare_parameters,
+    run_node,
+)
+from wildfire_msgs_py.runtime import Node
 from wildfire_msgs_py.system_codecs import (
     READY_SUFFIX,
     BeliefSnapshot,
@@ -161,10 +167,8 @@ class AgentNode(Node):
         self.stats = DeadlineStats()
         self.slot_start: float | None = None
 
-        def publisher(spec: contract.TopicSpec, topic: str | None = None) -> Any:
-            return self.create_publisher(
-                get_message(spec.type), topic or spec.resolve(self.k), spec.qos.profile()
-            )
+        def publisher(spec: contract.TopicSpec) -> Any:
+            return contract_publisher(self, spec, self.k if spec.per_aircraft else None)
 
         self.odom_pub = publisher(contract.ODOM)
         self.bank_pub = publisher(contract.BANK_CMD)
@@ -175,22 +179,18 @@ class AgentNode(Node):
         self.ack_pub = publisher(contract.ACK)
         self.snapshot_pub = publisher(contract.BELIEF_SNAPSHOT)
 
-        def subscribe(spec: contract.TopicSpec, callback: Any, topic: str | None = None) -> None:
-            self.create_subscription(
-                get_message(spec.type), topic or spec.name, callback, spec.qos.profile()
-            )
-
-        subscribe(contract.FIRE_MAP, self.fire_map_callback)
-        subscribe(contract.EPISODE, self.episode_callback)
-        subscribe(contract.BELIEF, self.belief_callback)
-        subscribe(contract.BELIEF_AGE_EXACT, self.belief_age_callback)
-        subscribe(contract.SCORE, self.score_callback)
-        subscribe(contract.BELIEF_REQUEST, self.belief_request_callback)
+        contract_subscription(self, contract.FIRE_MAP, self.fire_map_callback)
+        contract_subscription(self, contract.EPISODE, self.episode_callback)
+        contract_subscription(self, contract.BELIEF, self.belief_callback)
+        contract_subscription(self, contract.BELIEF_AGE_EXACT, self.belief_age_callback)
+        contract_subscription(self, contract.SCORE, self.score_callback)
+        contract_subscription(self, contract.BELIEF_REQUEST, self.belief_request_callback)
         for j in self.peer_states:
-            subscribe(
+            contract_subscription(
+                self,
                 contract.STATE_STAMPED,
                 lambda msg, j=j: self.peer_state_callback(j, msg),
-                contract.STATE_STAMPED.resolve(j),
+                aircraft=j,
             )
         self.publish_state(0)
         self.startup_timer = self.create_timer(0.1, self.startup_timer_callback)

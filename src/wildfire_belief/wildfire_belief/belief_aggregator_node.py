@@ -33,8 +33,14 @@ from wildfire_msgs_py.codecs import (
     time_from_msg,
     visit_from_msg,
 )
-from wildfire_msgs_py.node_support import ParamSpec, declare_parameters, run_node
-from wildfire_msgs_py.runtime import Node, get_message
+from wildfire_msgs_py.node_support import (
+    ParamSpec,
+    contract_publisher,
+    contract_subscription,
+    declare_parameters,
+    run_node,
+)
+from wildfire_msgs_py.runtime import Node
 from wildfire_msgs_py.system_codecs import (
     READY_SUFFIX,
     ack_to_msg,
@@ -80,34 +86,27 @@ class BeliefAggregatorNode(Node):
         self.snapshots: list[Any] = []
         self.started = False
 
-        def publisher(spec: contract.TopicSpec) -> Any:
-            return self.create_publisher(get_message(spec.type), spec.name, spec.qos.profile())
-
-        self.belief_pub = publisher(contract.BELIEF)
-        self.age_pub = publisher(contract.BELIEF_AGE)
-        self.age_exact_pub = publisher(contract.BELIEF_AGE_EXACT)
-        self.score_pub = publisher(contract.SCORE)
-        self.ack_pub = publisher(contract.ACK)
-        self.request_pub = publisher(contract.BELIEF_REQUEST)
+        self.belief_pub = contract_publisher(self, contract.BELIEF)
+        self.age_pub = contract_publisher(self, contract.BELIEF_AGE)
+        self.age_exact_pub = contract_publisher(self, contract.BELIEF_AGE_EXACT)
+        self.score_pub = contract_publisher(self, contract.SCORE)
+        self.ack_pub = contract_publisher(self, contract.ACK)
+        self.request_pub = contract_publisher(self, contract.BELIEF_REQUEST)
         for k in range(self.n):
-            self.create_subscription(
-                get_message(contract.VISIT.type),
-                contract.VISIT.resolve(k),
+            contract_subscription(
+                self,
+                contract.VISIT,
                 lambda msg, k=k: self.visit_callback(k, msg),
-                contract.QosSpec(depth=100).profile(),
+                aircraft=k,
+                qos=contract.QosSpec(depth=100),
             )
-        self.create_subscription(
-            get_message(contract.EPISODE.type),
-            contract.EPISODE.name,
-            self.episode_callback,
-            contract.EPISODE.qos.profile(),
-        )
+        contract_subscription(self, contract.EPISODE, self.episode_callback)
         # Many agents answer on one keyless topic: keep them all.
-        self.create_subscription(
-            get_message(contract.BELIEF_SNAPSHOT.type),
-            contract.BELIEF_SNAPSHOT.name,
+        contract_subscription(
+            self,
+            contract.BELIEF_SNAPSHOT,
             self.snapshot_callback,
-            contract.QosSpec(depth=100, transient_local=True).profile(),
+            qos=contract.QosSpec(depth=100, transient_local=True),
         )
         self.startup_timer = self.create_timer(0.1, self.startup_timer_callback)
         self.merge_timer = (

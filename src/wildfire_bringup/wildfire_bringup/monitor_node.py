@@ -22,7 +22,8 @@ from wildfire_msgs_py.codecs import (
     score_from_msg,
     time_from_msg,
 )
-from wildfire_msgs_py.runtime import Node, get_message
+from wildfire_msgs_py.node_support import contract_publisher, contract_subscription
+from wildfire_msgs_py.runtime import Node
 from wildfire_msgs_py.system_codecs import (
     READY_SUFFIX,
     EpisodeStatus,
@@ -53,15 +54,12 @@ class RunMonitorNode(Node):
         self.score = 0.0
         self.deadlines: dict[int, dict[str, float]] = {}
         self.acked_tick = -1
-        self.ack_pub = self.create_publisher(
-            get_message(contract.ACK.type), contract.ACK.name, contract.ACK.qos.profile()
-        )
+        self.ack_pub = contract_publisher(self, contract.ACK)
 
-        def subscribe(spec: contract.TopicSpec, callback: Any, topic: str | None = None) -> None:
+        def subscribe(spec: contract.TopicSpec, callback: Any, aircraft: int | None = None) -> None:
+            # The monitor records every message: a deep history on every topic.
             qos = contract.QosSpec(depth=100, transient_local=spec.qos.transient_local)
-            self.create_subscription(
-                get_message(spec.type), topic or spec.name, callback, qos.profile()
-            )
+            contract_subscription(self, spec, callback, aircraft=aircraft, qos=qos)
 
         subscribe(contract.EPISODE, self.episode_callback)
         subscribe(contract.FIRE_MAP, self.fire_map_callback)
@@ -70,16 +68,8 @@ class RunMonitorNode(Node):
         subscribe(contract.BELIEF_AGE_EXACT, self.belief_age_callback)
         subscribe(contract.SCORE, self.score_callback)
         for k in range(n_aircraft):
-            subscribe(
-                contract.STATE_STAMPED,
-                lambda msg, k=k: self.state_callback(k, msg),
-                contract.STATE_STAMPED.resolve(k),
-            )
-            subscribe(
-                contract.DEADLINE,
-                lambda msg, k=k: self.deadline_callback(k, msg),
-                contract.DEADLINE.resolve(k),
-            )
+            subscribe(contract.STATE_STAMPED, lambda msg, k=k: self.state_callback(k, msg), k)
+            subscribe(contract.DEADLINE, lambda msg, k=k: self.deadline_callback(k, msg), k)
         self.ack_pub.publish(ack_to_msg(REPORTER + READY_SUFFIX, 0))
 
     # --- callbacks ----------------------------------------------------------------------------

@@ -7,6 +7,8 @@ a traceback for a user mistake.
 * :func:`reject_unknown_parameters` refuses overrides (``-p``, parameter files addressed to
   this node) that name no declared parameter, so a typo is an error rather than ignored.
   Entries of a ``/**`` section are shared by every node and are not checked.
+* :func:`contract_publisher` / :func:`contract_subscription` create an endpoint of a contract
+  topic with its type, resolved name and QoS, so nodes never restate them.
 * :func:`run_node` is the body of every ``main(args=None)``: init, build, spin until
   Ctrl-C/SIGTERM/shutdown, destroy, shut down. A start-up error of the kinds given is printed
   as one line ``<node>: error: ...`` and the process exits with status 2.
@@ -20,6 +22,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from wildfire_msgs_py.contract import QosSpec, TopicSpec
 from wildfire_msgs_py.errors import ParameterError, WildfireRosError
 
 EXIT_USER_ERROR = 2
@@ -95,6 +98,28 @@ def reject_unknown_parameters(node: Any, specs: Sequence[ParamSpec]) -> None:
             raise ParameterError(f"unknown parameter {name!r} for node {node.get_name()}")
 
 
+def contract_publisher(node: Any, spec: TopicSpec, aircraft: int | None = None) -> Any:
+    """Publisher of ``spec`` (aircraft ``aircraft``'s instance for per-aircraft topics)."""
+    from wildfire_msgs_py.runtime import get_message
+
+    return node.create_publisher(get_message(spec.type), spec.resolve(aircraft), spec.qos.profile())
+
+
+def contract_subscription(
+    node: Any,
+    spec: TopicSpec,
+    callback: Callable[[Any], None],
+    aircraft: int | None = None,
+    qos: QosSpec | None = None,
+) -> Any:
+    """Subscription to ``spec`` with its QoS, or ``qos`` where a reader needs a deeper history."""
+    from wildfire_msgs_py.runtime import get_message
+
+    return node.create_subscription(
+        get_message(spec.type), spec.resolve(aircraft), callback, (qos or spec.qos).profile()
+    )
+
+
 def _raise_keyboard_interrupt(_signum: int, _frame: Any) -> None:
     raise KeyboardInterrupt
 
@@ -143,6 +168,8 @@ def run_node(
 __all__ = [
     "EXIT_USER_ERROR",
     "ParamSpec",
+    "contract_publisher",
+    "contract_subscription",
     "declare_parameters",
     "reject_unknown_parameters",
     "run_node",

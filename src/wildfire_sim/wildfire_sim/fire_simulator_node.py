@@ -22,8 +22,14 @@ from typing import Any
 
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.codecs import clock_to_msg, fire_grid_to_msg, fuel_grid_to_msg
-from wildfire_msgs_py.node_support import ParamSpec, declare_parameters, run_node
-from wildfire_msgs_py.runtime import Node, get_message
+from wildfire_msgs_py.node_support import (
+    ParamSpec,
+    contract_publisher,
+    contract_subscription,
+    declare_parameters,
+    run_node,
+)
+from wildfire_msgs_py.runtime import Node
 from wildfire_msgs_py.system_codecs import (
     READY_SUFFIX,
     ack_from_msg,
@@ -79,31 +85,17 @@ class FireSimulatorNode(Node):
         self.started = False
         self.complete = False
 
-        self.fire_pub = self.create_publisher(
-            get_message(contract.FIRE_MAP.type),
-            contract.FIRE_MAP.name,
-            contract.FIRE_MAP.qos.profile(),
-        )
-        self.fuel_pub = self.create_publisher(
-            get_message(contract.FUEL_MAP.type),
-            contract.FUEL_MAP.name,
-            contract.FUEL_MAP.qos.profile(),
-        )
-        self.episode_pub = self.create_publisher(
-            get_message(contract.EPISODE.type),
-            contract.EPISODE.name,
-            contract.EPISODE.qos.profile(),
-        )
-        self.clock_pub = self.create_publisher(
-            get_message(contract.CLOCK.type), contract.CLOCK.name, contract.CLOCK.qos.profile()
-        )
+        self.fire_pub = contract_publisher(self, contract.FIRE_MAP)
+        self.fuel_pub = contract_publisher(self, contract.FUEL_MAP)
+        self.episode_pub = contract_publisher(self, contract.EPISODE)
+        self.clock_pub = contract_publisher(self, contract.CLOCK)
         # Header is keyless: every reporter writes the same instance, so the reader keeps a
         # deep history or acknowledgements of different reporters would replace each other.
-        self.create_subscription(
-            get_message(contract.ACK.type),
-            contract.ACK.name,
+        contract_subscription(
+            self,
+            contract.ACK,
             self.ack_callback,
-            contract.QosSpec(depth=1000, transient_local=True).profile(),
+            qos=contract.QosSpec(depth=1000, transient_local=True),
         )
         self.realtime_timer = (
             self.create_timer(DECISION_PERIOD_NS / 1e9, self.realtime_timer_callback)
