@@ -81,6 +81,7 @@ def test_eval_json(tmp_path):
         (["eval", "--policy", "/nonexistent/policy.pt"], "no such file"),
         (["eval", "--aircraft", "0"], "--aircraft"),
         (["eval", "--episodes", "-1"], "--episodes"),
+        (["eval", "--policy", "rh", "--card"], "--card: policy rh has no model card"),
     ],
 )
 def test_bad_input_is_one_line_with_status_2(args, needle):
@@ -104,3 +105,22 @@ def test_bench_core_suites_report_figures():
     figures = json.loads(result.stdout)
     assert figures["fire"]["fire_env_steps_per_s"] > figures["fire"]["fire_reference_steps_per_s"]
     assert figures["rh"]["rh_ms_per_decision"] > 0
+
+
+def test_eval_card_records_the_result_in_both_copies_of_the_card(tmp_path):
+    import torch
+
+    from wildfire_agent.policies import TorchScriptPolicy
+    from wildfire_learning.architectures import build_q_network
+    from wildfire_learning.export import export_policy
+
+    torch.manual_seed(0)
+    policy = export_policy(build_q_network("obs"), tmp_path / "obs.pt", {"approach": "obs"})
+    result = run("eval", "--policy", str(policy), "--shape", "t", "--aircraft", "3",
+                 "--episodes", "2", "--duration", "5", "--card", "--json")
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(result.stdout)
+    sidecar = json.loads(policy.with_suffix(".json").read_text())
+    recorded = sidecar["test_evaluations"]["t_3aircraft"]
+    assert recorded["scores"] == summary["scores"] and recorded["seeds"] == [2_000_000, 2_000_001]
+    assert TorchScriptPolicy(policy).card == sidecar

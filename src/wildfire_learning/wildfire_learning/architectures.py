@@ -4,10 +4,14 @@
 * ``fast`` — the same network behind a 2 x 2 average pool of the input image, so the
   100 x 100 belief image is seen at 50 x 50 (one pixel = 20 m; burning becomes the burning
   fraction of the 2 x 2 block, age its mean). Its convolutions cost ~4x less; on this CPU the
-  paper's belief network trains at ~1 iteration/s, far from the paper's 24 h budget. The
-  pool lives inside the module, so a ``fast`` policy file takes the same 2 x 100 x 100 input
-  and the agent nodes need no change. For the 30 x 40 sensor image ``fast`` is not offered:
-  the paper's network is already fast there.
+  paper's belief network trains at ~0.5 iteration/s, far from the paper's 24 h budget.
+* ``lite`` — the same behind a 4 x 4 average pool (25 x 25, one pixel = 40 m, still finer
+  than the 100 m visit radius): ~4x cheaper again, the belief network that trains within
+  the 2-3 hour budget here.
+
+The pool lives inside the module, so a ``fast``/``lite`` policy file takes the same
+2 x 100 x 100 input and the agent nodes need no change. For the 30 x 40 sensor image they
+are not offered: the paper's network is already fast there.
 """
 
 from __future__ import annotations
@@ -18,7 +22,9 @@ from torch import nn
 from wildfire_learning.errors import LearningError
 from wildfire_learning.network import QNetwork
 
-ARCHITECTURES = ("paper", "fast")
+ARCHITECTURES = ("paper", "fast", "lite")
+POOLING = {"fast": 2, "lite": 4}
+"""Average-pool factor of the input image of each downsampled architecture."""
 IMAGE_SHAPES = {"obs": (1, 30, 40), "belief": (2, 100, 100)}
 """Network input image (C, H, W) of each approach."""
 STATE_SHAPE_K2 = (1, 5)
@@ -26,13 +32,13 @@ STATE_SHAPE_K2 = (1, 5)
 
 
 class DownsampledQNetwork(nn.Module):
-    """:class:`QNetwork` on a 2 x 2 average-pooled image (same forward signature)."""
+    """:class:`QNetwork` on a ``factor`` x ``factor`` average-pooled image (same signature)."""
 
-    def __init__(self, image_shape: tuple[int, int, int]) -> None:
+    def __init__(self, image_shape: tuple[int, int, int], factor: int = 2) -> None:
         super().__init__()
         channels, height, width = image_shape
-        self.pool = nn.AvgPool2d(2)
-        self.q = QNetwork((channels, height // 2, width // 2))
+        self.pool = nn.AvgPool2d(factor)
+        self.q = QNetwork((channels, height // factor, width // factor))
 
     def forward(self, images: torch.Tensor, states: torch.Tensor) -> torch.Tensor:
         return self.q(self.pool(images), states)
@@ -45,11 +51,11 @@ def build_q_network(approach: str, arch: str = "paper") -> nn.Module:
     if arch not in ARCHITECTURES:
         raise LearningError(f"arch: expected one of {ARCHITECTURES}, got {arch!r}")
     shape = IMAGE_SHAPES[approach]
-    if arch == "fast":
+    if arch in POOLING:
         if approach != "belief":
-            raise LearningError("arch fast: only for the belief approach (obs is already fast)")
-        return DownsampledQNetwork(shape)
+            raise LearningError(f"arch {arch}: only for the belief approach (obs is already fast)")
+        return DownsampledQNetwork(shape, POOLING[arch])
     return QNetwork(shape)
 
 
-__all__ = ["ARCHITECTURES", "IMAGE_SHAPES", "DownsampledQNetwork", "build_q_network"]
+__all__ = ["ARCHITECTURES", "IMAGE_SHAPES", "POOLING", "DownsampledQNetwork", "build_q_network"]

@@ -4,6 +4,11 @@ All episodes run as one batch (each with its own seed, so results do not depend 
 run together). Reported per episode: score, flight time, belief IoU at the end (believed
 burning vs burning cells), mean belief age at the burning cells at the end; and the mean
 wall time a controller needs per aircraft decision.
+
+Seeds fall in three ranges: training episodes below ``VALIDATION_SEED_BASE``; the
+validation range, scored during training to draw the learning curve and keep the best
+network; and the test range, which nothing is trained or selected on, for reported results
+(``wildfire eval`` defaults to it).
 """
 
 from __future__ import annotations
@@ -17,6 +22,11 @@ import numpy as np
 from wildfire_belief.belief import belief_iou, mean_age_at_burning
 from wildfire_learning.controllers import Controller
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
+
+VALIDATION_SEED_BASE = 1_000_000
+"""First validation seed (training seeds stay below)."""
+TEST_SEED_BASE = 2_000_000
+"""First test seed (never used in training or model selection)."""
 
 
 @dataclass

@@ -45,4 +45,24 @@ def export_policy(model: nn.Module, path: str | Path, card: dict[str, Any]) -> P
     return path
 
 
-__all__ = ["export_policy", "sidecar_path"]
+def record_evaluation(policy_path: str | Path, scenario: str, result: dict[str, Any]) -> Path:
+    """Add an evaluation to a policy's card (``test_evaluations[scenario]``), in both copies.
+
+    The card inside the TorchScript file and its sidecar stay identical: the module is loaded
+    and saved again with the updated card. Returns the sidecar path.
+    """
+    from wildfire_agent.policies import TorchScriptPolicy
+
+    policy = TorchScriptPolicy(policy_path)  # raises a one-line error for a bad file
+    card = dict(policy.card)
+    card.setdefault("test_evaluations", {})[scenario] = result
+    path = Path(policy_path)
+    partial = path.with_name(path.name + ".partial")
+    torch.jit.save(policy.module, str(partial), _extra_files=save_policy_card(card))
+    partial.replace(path)
+    sidecar = sidecar_path(path)
+    sidecar.write_text(json.dumps(card, indent=2, sort_keys=True) + "\n")
+    return sidecar
+
+
+__all__ = ["export_policy", "record_evaluation", "sidecar_path"]

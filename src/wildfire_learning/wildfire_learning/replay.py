@@ -4,7 +4,9 @@ Two rings share the memory:
 
 * a **frame ring** of observations — the image quantised to uint8 (:class:`ImageCodec`) and
   the normalised pairwise states (K, 5) float32 — each written once;
-* a **transition ring** of ``(obs frame id, action, reward, terminated, next frame id)``.
+* a **transition ring** of ``(obs frame id, action, reward, terminated, next frame id,
+  steps)``, where ``steps`` is how many decisions the transition spans: an n-step transition
+  holds the discounted sum of its ``steps`` rewards and bootstraps with ``gamma ** steps``.
 
 A decision's next observation is the next decision's observation, so storing frames once
 halves the memory of a CleanRL-style ``(obs, next_obs)`` buffer. Frame ids are global write
@@ -74,6 +76,8 @@ class Batch(NamedTuple):
     """(B,) float32: 1 when the episode ended by termination (no bootstrap)."""
     next_images: torch.Tensor
     next_states: torch.Tensor
+    steps: torch.Tensor
+    """(B,) float32: decisions spanned (the bootstrap is discounted by gamma ** steps)."""
 
 
 class ReplayBuffer:
@@ -103,6 +107,7 @@ class ReplayBuffer:
         self.actions = np.zeros(capacity, dtype=np.int64)
         self.rewards = np.zeros(capacity, dtype=np.float32)
         self.terminated = np.zeros(capacity, dtype=np.float32)
+        self.steps = np.ones(capacity, dtype=np.uint8)
         self.frames_written = 0
         self.transitions_written = 0
 
@@ -112,7 +117,7 @@ class ReplayBuffer:
     @property
     def nbytes(self) -> int:
         arrays = (self.images, self.states, self.obs_id, self.next_id, self.actions,
-                  self.rewards, self.terminated)
+                  self.rewards, self.terminated, self.steps)
         return sum(a.nbytes for a in arrays)
 
     def add_frames(
@@ -134,8 +139,9 @@ class ReplayBuffer:
         rewards: np.ndarray,
         terminated: np.ndarray,
         next_ids: np.ndarray,
+        steps: np.ndarray | int = 1,
     ) -> None:
-        """Store transitions between frames already added."""
+        """Store transitions between frames already added (``steps`` decisions each)."""
         count = len(obs_ids)
         slots = (self.transitions_written + np.arange(count)) % self.capacity
         self.obs_id[slots] = obs_ids
@@ -143,6 +149,7 @@ class ReplayBuffer:
         self.actions[slots] = actions
         self.rewards[slots] = rewards
         self.terminated[slots] = terminated
+        self.steps[slots] = steps
         self.transitions_written += count
 
     def add_sequence(
@@ -184,6 +191,7 @@ class ReplayBuffer:
             terminated=torch.from_numpy(self.terminated[slots]),
             next_images=decode(torch.from_numpy(self.images[nxt])),
             next_states=torch.from_numpy(self.states[nxt]),
+            steps=torch.from_numpy(self.steps[slots].astype(np.float32)),
         )
 
     # ------------------------------------------------------------------ persistence
@@ -198,6 +206,7 @@ class ReplayBuffer:
             actions=self.actions,
             rewards=self.rewards,
             terminated=self.terminated,
+            steps=self.steps,
             counters=np.array([self.frames_written, self.transitions_written], dtype=np.int64),
             scales=np.asarray(self.codec.scales, dtype=np.float64),
         )
@@ -217,7 +226,7 @@ class ReplayBuffer:
                 )
                 buffer.images[:] = images
                 buffer.states[:] = states
-                for name in ("obs_id", "next_id", "actions", "rewards", "terminated"):
+                for name in ("obs_id", "next_id", "actions", "rewards", "terminated", "steps"):
                     getattr(buffer, name)[:] = data[name]
                 buffer.frames_written, buffer.transitions_written = (
                     int(v) for v in data["counters"]

@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import json
 import tempfile
 import time
 from pathlib import Path
@@ -28,11 +29,25 @@ from wildfire_learning.export import export_policy
 from wildfire_learning.replay import ImageCodec, ReplayBuffer
 
 PAPER_REPLAY = 70_000
+VARIANTS = (("obs", "paper", "obs"), ("belief", "paper", "belief"),
+            ("belief", "fast", "belief_fast"), ("belief", "lite", "belief_lite"))
+"""(approach, architecture, figure key) of every network timed."""
+
+
+def _shipped_arch(path: Path) -> str | None:
+    """Architecture named by a shipped policy's JSON card (None: no policy or no card)."""
+    card = path.with_suffix(".json")
+    if not (path.is_file() and card.is_file()):
+        return None
+    try:
+        return str(json.loads(card.read_text()).get("arch"))
+    except (OSError, ValueError):
+        return None
 
 
 def _policy_file(approach: str, arch: str, directory: Path) -> tuple[Path, str]:
     shipped = MODELS_DIR / f"{approach}_policy.pt"
-    if arch == "paper" and shipped.is_file():
+    if _shipped_arch(shipped) == arch:
         return shipped, "shipped"
     path = directory / f"{approach}_{arch}.pt"
     export_policy(build_q_network(approach, arch), path, {"approach": approach, "arch": arch})
@@ -83,16 +98,14 @@ def bench_inference(quick: bool = False) -> dict[str, Any]:
         with tempfile.TemporaryDirectory() as tmp:
             directory = Path(tmp)
             repeats = 50 if quick else 300
-            for approach, arch, key in (("obs", "paper", "obs"), ("belief", "paper", "belief"),
-                                        ("belief", "fast", "belief_fast")):
+            for approach, arch, key in VARIANTS:
                 path, source = _policy_file(approach, arch, directory)
                 figures[f"{key}_inference_ms"] = inference_ms(path, approach, repeats)
                 figures[f"{key}_model"] = source
-            budgets = {"obs": 20, "belief": 3, "belief_fast": 8}
+            budgets = {"obs": 20, "belief": 3, "belief_fast": 8, "belief_lite": 20}
             if quick:
-                budgets = {"obs": 6, "belief": 1, "belief_fast": 2}
-            for approach, arch, key in (("obs", "paper", "obs"), ("belief", "paper", "belief"),
-                                        ("belief", "fast", "belief_fast")):
+                budgets = {"obs": 6, "belief": 1, "belief_fast": 2, "belief_lite": 6}
+            for approach, arch, key in VARIANTS:
                 speed = train_speed(approach, arch, budgets[key], directory)
                 figures[f"train_samples_per_s_{key}"] = speed["samples_per_s"]
                 figures[f"train_iterations_per_s_{key}"] = speed["iterations_per_s"]

@@ -5,14 +5,15 @@ from __future__ import annotations
 import argparse
 
 from wildfire_bringup.cli.common import (
+    UserError,
     add_episode_arguments,
     positive_int,
     print_json,
 )
 from wildfire_bringup.cli.progress import progress_bar
-from wildfire_learning.controllers import make_controller
+from wildfire_learning.controllers import make_controller, resolve_policy_path
 from wildfire_learning.env import EnvConfig
-from wildfire_learning.evaluate import evaluate
+from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
 from wildfire_sim.shapes import Shape
 
 
@@ -25,11 +26,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     add_episode_arguments(
         parser,
-        default_seed=1_000_000,
-        seed_help="first episode seed (default: the held-out evaluation range)",
+        default_seed=TEST_SEED_BASE,
+        seed_help=f"first episode seed (default: {TEST_SEED_BASE}, the test range: never "
+        "trained or selected on)",
     )
     parser.add_argument("--episodes", type=positive_int, default=20, metavar="K")
     parser.add_argument("--png", metavar="FILE", help="draw the first episode")
+    parser.add_argument("--card", action="store_true",
+                        help="record the result in the policy's JSON model card (key "
+                        "test_evaluations.<shape>_<N>aircraft); Q-network policies only")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
 
@@ -37,6 +42,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     shape = Shape.parse(args.shape)
     controller = make_controller(args.policy)
+    if args.card and args.policy in ("rh", "random"):
+        raise UserError(f"--card: policy {args.policy} has no model card (a Q-network has)")
     config = EnvConfig(
         n_aircraft=args.aircraft,
         shapes=(shape.value,),
@@ -72,6 +79,13 @@ def run(args: argparse.Namespace) -> int:
         "shape": shape.value,
         "duration_s": args.duration,
     }
+    if args.card:
+        from wildfire_learning.export import record_evaluation
+
+        scenario = f"{shape.value}_{args.aircraft}aircraft"
+        card = record_evaluation(resolve_policy_path(args.policy), scenario, result)
+        if not args.json:
+            print(f"recorded {scenario} in {card}")
     if args.json:
         print_json(result)
     else:

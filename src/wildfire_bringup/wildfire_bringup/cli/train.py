@@ -26,6 +26,7 @@ from wildfire_bringup.cli.common import (
     positive_int,
     print_json,
 )
+from wildfire_learning.architectures import ARCHITECTURES
 from wildfire_learning.dqn import RunOptions, Status, TrainConfig, config_from_dict, train
 
 # Option name of each TrainConfig field whose CLI name differs from the field.
@@ -86,7 +87,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         if spec.name == "approach":
             parser.add_argument(option, choices=("obs", "belief"), **common)
         elif spec.name == "arch":
-            parser.add_argument(option, choices=("paper", "fast"), **common)
+            parser.add_argument(option, choices=ARCHITECTURES, **common)
         elif spec.name in ("shapes", "eval_shapes"):
             parser.add_argument(option, nargs="+", metavar="SHAPE", **common)
         elif spec.name == "channels_last":
@@ -98,7 +99,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             parser.add_argument(option, type=kind, **common)
         elif spec.name in ("num_envs", "n_aircraft", "buffer_size", "train_frequency",
                            "batch_size", "target_network_frequency", "eval_episodes",
-                           "torch_threads"):
+                           "torch_threads", "n_step"):
             parser.add_argument(option, type=positive_int, **common)
         else:
             parser.add_argument(option, type=non_negative_int, **common)
