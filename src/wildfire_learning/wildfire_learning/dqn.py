@@ -27,6 +27,11 @@ Decisions beyond the paper (documented here, reported in the card):
   order 1 rather than 100: AdaMax moves each weight by about the learning rate per step, and
   unscaled targets spend thousands of iterations just reaching their magnitude. The greedy
   policy does not depend on the scale.
+* Exploring aircraft hold their random action for 1-20 decisions (epsilon-z-greedy, see
+  ``exploration.py``), the prefill included; the fraction of random decisions is still
+  epsilon. i.i.d. random ±5° steps at 10 Hz only jitter the bank and never make a turn.
+* Double DQN targets (``double_q``): less over-estimation of the action the network already
+  prefers, which at 10 Hz was enough to lock a policy into full-bank circles.
 * Epsilon reaches 0.1 after 200 000 samples (the scripts: 500 000), so most of a
   2-3 hour budget on this CPU is spent refining the greedy policy.
 * Episodes abandoned by an interruption are not resumed: a resumed run starts new episodes
@@ -53,6 +58,7 @@ from wildfire_learning.architectures import IMAGE_SHAPES, build_q_network
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import VALIDATION_SEED_BASE, EvaluationSummary, evaluate
+from wildfire_learning.exploration import PersistentExploration
 from wildfire_learning.export import export_policy
 from wildfire_learning.nstep import NStepAccumulator
 from wildfire_learning.replay import ImageCodec, ReplayBuffer
@@ -115,6 +121,10 @@ class TrainConfig:
     """Final exploration probability."""
     exploration_samples: int = 200_000
     """Samples over which epsilon falls linearly from ``start_e`` to ``end_e``."""
+    explore_hold: int = 20
+    """A random action is held for 1..explore_hold decisions (1: plain epsilon-greedy)."""
+    double_q: bool = True
+    """Double DQN targets (the online network picks the next action, the target scores it)."""
     target_network_frequency: int = 1000
     """Training iterations between target-network copies."""
     eval_every: int = 10_000
@@ -135,7 +145,8 @@ class TrainConfig:
         if self.approach not in IMAGE_SHAPES:
             raise LearningError(f"approach: expected obs or belief, got {self.approach!r}")
         positive = ("num_envs", "n_aircraft", "buffer_size", "train_frequency", "batch_size",
-                    "target_network_frequency", "eval_episodes", "torch_threads", "n_step")
+                    "target_network_frequency", "eval_episodes", "torch_threads", "n_step",
+                    "explore_hold")
         for name in positive:
             if getattr(self, name) < 1:
                 raise LearningError(f"{name}: expected >= 1, got {getattr(self, name)}")
@@ -302,7 +313,13 @@ def td_update(
         next_images = next_images.contiguous(memory_format=torch.channels_last)
     with torch.no_grad():
         # Pairwise Q-values are summed over the other aircraft (SPEC 2.5); K = 1 for two.
-        target_max = target_network(next_images, batch.next_states).sum(dim=1).max(dim=1).values
+        next_q = target_network(next_images, batch.next_states).sum(dim=1)
+        if config.double_q:
+            # Double DQN: the online network picks the next action, the target scores it.
+            chosen = q_network(next_images, batch.next_states).sum(dim=1).argmax(dim=1)
+            target_max = next_q.gather(1, chosen[:, None]).squeeze(1)
+        else:
+            target_max = next_q.max(dim=1).values
         bootstrap = config.gamma ** batch.steps * (1.0 - batch.terminated)
         td_target = config.reward_scale * batch.rewards + bootstrap * target_max
     q = q_network(images, batch.states).sum(dim=1)
@@ -607,6 +624,7 @@ def train(
             frame_ids = replay.add_frames(*_flat(observations, np.arange(config.num_envs)))
             frame_ids = frame_ids.reshape(config.num_envs, n)
             pending = NStepAccumulator(config.num_envs, n, config.n_step, config.gamma)
+            exploration = PersistentExploration(config.num_envs, n, config.explore_hold)
 
             def finished() -> bool:
                 if config.iterations > 0:
@@ -618,12 +636,12 @@ def train(
                                           state.samples)
                 prefilling = len(replay) < config.learning_starts
                 # Every aircraft of every environment: one batched forward pass.
-                actions = rng.integers(0, 2, size=(config.num_envs, n))
+                greedy = np.zeros((config.num_envs, n), dtype=np.int64)
                 if not prefilling:
                     images, states = _flat(observations, np.arange(config.num_envs))
                     greedy = greedy_actions(q_network, images, states, config.channels_last)
-                    explore = rng.random((config.num_envs, n)) < epsilon
-                    actions = np.where(explore, actions, greedy.reshape(config.num_envs, n))
+                    greedy = greedy.reshape(config.num_envs, n)
+                actions = exploration.actions(greedy, 1.0 if prefilling else epsilon, rng)
                 active = np.flatnonzero(~env.done)
                 result = env.step(actions)
                 observations = result.observations
@@ -644,6 +662,7 @@ def train(
                     seeds = (state.episodes + np.arange(ended.size)) % EVAL_SEED_BASE
                     state.episodes += int(ended.size)
                     observations = env.reset(seeds, ended)
+                    exploration.reset(ended)
                     frame_ids[ended] = replay.add_frames(*_flat(observations, ended)).reshape(-1, n)
 
                 if len(replay) >= config.learning_starts:

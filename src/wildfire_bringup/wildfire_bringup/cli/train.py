@@ -90,7 +90,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             parser.add_argument(option, choices=ARCHITECTURES, **common)
         elif spec.name in ("shapes", "eval_shapes"):
             parser.add_argument(option, nargs="+", metavar="SHAPE", **common)
-        elif spec.name == "channels_last":
+        elif spec.name in ("channels_last", "double_q"):
             parser.add_argument(option, action=argparse.BooleanOptionalAction, **common)
         elif spec.name in ("start_e", "end_e", "max_wind"):
             parser.add_argument(option, type=_probability, **common)
@@ -99,7 +99,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             parser.add_argument(option, type=kind, **common)
         elif spec.name in ("num_envs", "n_aircraft", "buffer_size", "train_frequency",
                            "batch_size", "target_network_frequency", "eval_episodes",
-                           "torch_threads", "n_step"):
+                           "torch_threads", "n_step", "explore_hold"):
             parser.add_argument(option, type=positive_int, **common)
         else:
             parser.add_argument(option, type=non_negative_int, **common)
