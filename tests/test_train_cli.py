@@ -169,3 +169,19 @@ def test_interrupted_run_checkpoints_and_resumes(tmp_path: Path) -> None:
     assert 0 < saved < 100000
     resumed = run_json("--resume", "--run-dir", str(run_dir), "--iterations", str(saved + 2))
     assert resumed["iterations"] == saved + 2
+
+
+def test_a_resumed_run_keeps_the_behaviour_it_was_started_with() -> None:
+    import argparse
+    from dataclasses import fields
+
+    from wildfire_bringup.cli.train import build_config
+    from wildfire_learning.dqn import TrainConfig
+
+    nothing_given = argparse.Namespace(**{f.name: None for f in fields(TrainConfig)})
+    fresh = build_config(nothing_given, None)
+    assert (fresh.n_step, fresh.explore_hold, fresh.double_q) == (20, 20, True)
+    # A checkpoint written before n-step, reward scaling, held exploration and double DQN.
+    old = build_config(nothing_given, {"approach": "obs", "learning_rate": 1e-4})
+    assert (old.n_step, old.reward_scale, old.explore_hold, old.double_q) == (1, 1.0, 1, False)
+    assert old.learning_rate == 1e-4

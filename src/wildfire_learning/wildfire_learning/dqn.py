@@ -381,6 +381,18 @@ def load_checkpoint(run_dir: Path) -> dict[str, Any]:
     return payload
 
 
+PRE_EXTENSION_VALUES: dict[str, Any] = {
+    "n_step": 1, "reward_scale": 1.0, "explore_hold": 1, "double_q": False,
+}
+"""Values of fields added after the first runs, for configs saved before them: a resumed run
+keeps training the way it started (one-step, unscaled, plain epsilon-greedy, single Q)."""
+
+
+def upgrade_saved_config(saved: dict[str, Any]) -> dict[str, Any]:
+    """A checkpoint's config with the fields it predates set to their original behaviour."""
+    return {k: v for k, v in PRE_EXTENSION_VALUES.items() if k not in saved} | saved
+
+
 def config_from_dict(values: dict[str, Any]) -> TrainConfig:
     known = {f.name for f in fields(TrainConfig)}
     kept = {k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items() if k in known}
@@ -730,6 +742,7 @@ __all__ = [
     "policy_card",
     "save_checkpoint",
     "target_iterations",
+    "upgrade_saved_config",
     "td_update",
     "train",
 ]

@@ -27,7 +27,14 @@ from wildfire_bringup.cli.common import (
     print_json,
 )
 from wildfire_learning.architectures import ARCHITECTURES
-from wildfire_learning.dqn import RunOptions, Status, TrainConfig, config_from_dict, train
+from wildfire_learning.dqn import (
+    RunOptions,
+    Status,
+    TrainConfig,
+    config_from_dict,
+    train,
+    upgrade_saved_config,
+)
 
 # Option name of each TrainConfig field whose CLI name differs from the field.
 OPTION_NAMES = {"learning_rate": "lr", "max_wind": "max-wind"}
@@ -140,7 +147,7 @@ def _baseline(text: str | None) -> float | None:
 
 def build_config(args: argparse.Namespace, saved: dict[str, Any] | None) -> TrainConfig:
     """Defaults < saved checkpoint config < options given on the command line."""
-    values: dict[str, Any] = dict(saved or {})
+    values: dict[str, Any] = upgrade_saved_config(saved) if saved else {}
     for spec in fields(TrainConfig):
         given = getattr(args, spec.name)
         if given is not None:
