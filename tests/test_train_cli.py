@@ -132,6 +132,10 @@ def test_bad_inputs_are_one_line_errors(
         (["--approach", "obs", "--arch", "fast", "--run-dir", str(tmp_path / "y")], "fast"),
         (["--baseline", "nothing.json", "--run-dir", str(tmp_path / "z")], "--baseline"),
         (["--lr", "-1"], "expected a number > 0"),
+        (["--approach", "belief", "--init-from", str(run_dir / "obs_policy.pt"),
+          "--run-dir", str(tmp_path / "w")], "a obs/paper policy, this run trains belief"),
+        (["--approach", "obs", "--init-from", str(tmp_path / "none.pt"),
+          "--run-dir", str(tmp_path / "v")], "no such file"),
     ]
     (tmp_path / "corrupt").mkdir()
     (tmp_path / "corrupt" / CHECKPOINT_FILE).write_bytes(b"\x00garbage")
@@ -185,3 +189,17 @@ def test_a_resumed_run_keeps_the_behaviour_it_was_started_with() -> None:
     old = build_config(nothing_given, {"approach": "obs", "learning_rate": 1e-4})
     assert (old.n_step, old.reward_scale, old.explore_hold, old.double_q) == (1, 1.0, 1, False)
     assert old.learning_rate == 1e-4
+
+
+def test_init_from_starts_at_the_policy_weights_and_says_so(tmp_path: Path) -> None:
+    first = tmp_path / "first"
+    run_json("--approach", "obs", *TINY, "--iterations", "3", "--run-dir", str(first))
+    start = torch.jit.load(str(first / "obs_policy.pt")).state_dict()
+    second = tmp_path / "second"
+    run_json("--approach", "obs", *TINY, "--iterations", "1", "--run-dir", str(second),
+             "--init-from", str(first / "obs_policy.pt"))
+    tuned = torch.jit.load(str(second / "obs_policy.pt")).state_dict()
+    # One AdaMax step moves a weight by at most about the learning rate.
+    assert max(float((tuned[k] - start[k]).abs().max()) for k in start) < 1e-3
+    card = json.loads((second / "obs_policy.json").read_text())
+    assert card["initialised_from"]["iterations"] == 3

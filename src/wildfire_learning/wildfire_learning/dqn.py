@@ -235,6 +235,8 @@ class RunOptions:
     """Recorded bags whose transitions prefill the replay."""
     offline: bool = False
     """Train on the bag transitions only (no environment interaction)."""
+    init_policy: Path | None = None
+    """Start from the weights of this exported policy (fine-tuning) instead of random ones."""
 
 
 # ------------------------------------------------------------------------------- helpers
@@ -393,6 +395,22 @@ def upgrade_saved_config(saved: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in PRE_EXTENSION_VALUES.items() if k not in saved} | saved
 
 
+def load_policy_weights(model: nn.Module, path: Path, approach: str, arch: str) -> None:
+    """Copy the weights of an exported policy file into ``model`` (same approach and arch)."""
+    from wildfire_agent.errors import AgentConfigError
+    from wildfire_agent.policies import TorchScriptPolicy
+
+    try:
+        policy = TorchScriptPolicy(path)
+    except AgentConfigError as error:
+        raise LearningError(f"--init-from {error}") from None
+    trained = (policy.card.get("approach"), policy.card.get("arch", "paper"))
+    if trained != (approach, arch):
+        raise LearningError(f"--init-from {path}: a {trained[0]}/{trained[1]} policy, "
+                            f"this run trains {approach}/{arch}")
+    model.load_state_dict(policy.module.state_dict())
+
+
 def config_from_dict(values: dict[str, Any]) -> TrainConfig:
     known = {f.name for f in fields(TrainConfig)}
     kept = {k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items() if k in known}
@@ -430,6 +448,21 @@ def write_curve(run_dir: Path, rows: list[dict[str, float]], baseline: float | N
     plt.close(fig)
 
 
+def _init_summary(path: Path | None) -> dict[str, Any] | None:
+    """What a fine-tuned run started from: the policy file and its own training figures."""
+    if path is None:
+        return None
+    from wildfire_learning.export import sidecar_path
+
+    card: dict[str, Any] = {}
+    if sidecar_path(path).is_file():
+        card = json.loads(sidecar_path(path).read_text())
+    evaluation = card.get("evaluation", {})
+    return {"path": str(path), "iterations": card.get("iterations"),
+            "samples": card.get("samples"), "wall_time_s": card.get("wall_time_s"),
+            "config": card.get("config"), "score_mean": evaluation.get("score_mean")}
+
+
 def policy_card(
     config: TrainConfig, state: TrainState, options: RunOptions, bag_transitions: int
 ) -> dict[str, Any]:
@@ -445,6 +478,7 @@ def policy_card(
         "iterations": state.iterations,
         "samples": state.samples,
         "wall_time_s": round(state.wall_time_s, 1),
+        "initialised_from": _init_summary(options.init_policy),
         "trained_from_bags": [str(p) for p in options.bag_dirs],
         "bag_transitions": bag_transitions,
         "offline": options.offline,
@@ -537,6 +571,8 @@ def train(
         torch.set_rng_state(payload["torch_rng"])
         replay = ReplayBuffer.load(run_dir / REPLAY_FILE)
     else:
+        if options.init_policy is not None:
+            load_policy_weights(q_network, options.init_policy, approach, config.arch)
         target_network.load_state_dict(q_network.state_dict())
 
     bag_transitions = 0

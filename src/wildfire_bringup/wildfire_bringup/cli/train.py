@@ -118,6 +118,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                         "`wildfire eval --json` output), drawn dashed on the learning curve")
     parser.add_argument("--from-bag", nargs="+", type=Path, metavar="DIR",
                         help="rebuild transitions from recorded bags (`wildfire run --record`)")
+    parser.add_argument("--init-from", type=Path, metavar="POLICY.pt",
+                        help="start from the weights of an exported policy of the same "
+                        "approach and architecture (fine-tuning; recorded in the card)")
     parser.add_argument("--online", action="store_true",
                         help="with --from-bag: prefill the replay with the bag transitions, "
                         "then train in simulation (default: train on the bags only)")
@@ -179,6 +182,7 @@ def run(args: argparse.Namespace) -> int:
         baseline_score=_baseline(args.baseline),
         bag_dirs=tuple(args.from_bag or ()),
         offline=bool(args.from_bag) and not args.online,
+        init_policy=args.init_from,
     )
     if args.out is not None and not out.parent.is_dir():
         raise UserError(f"--out {out}: directory {out.parent} does not exist")
