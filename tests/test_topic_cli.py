@@ -52,7 +52,7 @@ def test_echo_pub_list_info_across_processes(dds_env: dict[str, str]) -> None:
             "-r",
             "20",
             "-t",
-            "200",
+            "6000",  # 5 minutes: outlives the steps below on a loaded machine (killed after)
             "/wildfire/score",
             "std_msgs/msg/Float64",
             "{data: 42.5}",

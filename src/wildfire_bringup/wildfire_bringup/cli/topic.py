@@ -27,7 +27,11 @@ if TYPE_CHECKING:
     import argparse
 
 DISCOVERY_S = 1.0
-"""How long ``list``/``info`` listen for discovery before answering."""
+"""How long ``list`` listens for discovery before answering."""
+INFO_DISCOVERY_S = 5.0
+"""Longest ``info`` waits for its topic to be discovered."""
+ENDPOINT_SETTLE_S = 0.3
+"""Extra time ``info`` listens once its topic is known, for the other endpoints."""
 
 
 def add_parser(subparsers: Any) -> None:
@@ -84,8 +88,8 @@ def add_parser(subparsers: Any) -> None:
     info.add_argument(
         "--spin-time",
         type=positive_float,
-        default=DISCOVERY_S,
-        help="seconds to wait for discovery (default %(default)s)",
+        default=INFO_DISCOVERY_S,
+        help="longest wait for the topic to be discovered (default %(default)s s)",
     )
     info.set_defaults(handler=run_info)
 
@@ -220,7 +224,10 @@ def run_info(args: argparse.Namespace) -> int:
 
     topic = _absolute(args.topic)
     with ros_node("wildfire_topic_info") as node:
-        time.sleep(args.spin_time)
+        # Answer as soon as the topic is discovered (a loaded machine can take seconds),
+        # then give the rest of its endpoints a moment to show up.
+        if wait_for_topic_type(node, topic, args.spin_time) is not None:
+            time.sleep(ENDPOINT_SETTLE_S)
         types = dict(node.get_topic_names_and_types()).get(topic)
         if not types:
             raise UserError(
