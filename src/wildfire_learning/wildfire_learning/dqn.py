@@ -31,7 +31,7 @@ Decisions beyond the paper (documented here, reported in the card):
   ``exploration.py``), the prefill included; the fraction of random decisions is still
   epsilon. i.i.d. random ±5° steps at 10 Hz only jitter the bank and never make a turn.
 * Double DQN targets (``double_q``): less over-estimation of the action the network already
-  prefers, which at 10 Hz was enough to lock a policy into full-bank circles.
+  prefers (single-Q runs here drifted into full-bank circles, where one action is a no-op).
 * Epsilon reaches 0.1 after 200 000 samples (the scripts: 500 000), so most of a
   2-3 hour budget on this CPU is spent refining the greedy policy.
 * Episodes abandoned by an interruption are not resumed: a resumed run starts new episodes
@@ -455,8 +455,10 @@ def _init_summary(path: Path | None) -> dict[str, Any] | None:
     from wildfire_learning.export import sidecar_path
 
     card: dict[str, Any] = {}
-    if sidecar_path(path).is_file():
+    try:
         card = json.loads(sidecar_path(path).read_text())
+    except (OSError, ValueError):
+        pass  # no readable sidecar: the path alone still says where the weights came from
     evaluation = card.get("evaluation", {})
     return {"path": str(path), "iterations": card.get("iterations"),
             "samples": card.get("samples"), "wall_time_s": card.get("wall_time_s"),

@@ -36,13 +36,17 @@ def export_policy(model: nn.Module, path: str | Path, card: dict[str, Any]) -> P
         raise LearningError(f"--out {path}: directory {path.parent} does not exist")
     # Deployment feeds single NCHW images: drop a channels-last training layout.
     module = copy.deepcopy(model).to("cpu", memory_format=torch.contiguous_format).eval()
-    scripted = torch.jit.script(module)
+    _save_with_card(torch.jit.script(module), path, card)
+    return path
+
+
+def _save_with_card(scripted: torch.jit.ScriptModule, path: Path, card: dict[str, Any]) -> None:
+    """Write a scripted policy carrying ``card``, and the same card as its sidecar."""
     # Write next to the target then rename: an interrupted export never leaves half a file.
     partial = path.with_name(path.name + ".partial")
     torch.jit.save(scripted, str(partial), _extra_files=save_policy_card(card))
     partial.replace(path)
     sidecar_path(path).write_text(json.dumps(card, indent=2, sort_keys=True) + "\n")
-    return path
 
 
 def record_evaluation(policy_path: str | Path, scenario: str, result: dict[str, Any]) -> Path:
@@ -56,13 +60,8 @@ def record_evaluation(policy_path: str | Path, scenario: str, result: dict[str, 
     policy = TorchScriptPolicy(policy_path)  # raises a one-line error for a bad file
     card = dict(policy.card)
     card.setdefault("test_evaluations", {})[scenario] = result
-    path = Path(policy_path)
-    partial = path.with_name(path.name + ".partial")
-    torch.jit.save(policy.module, str(partial), _extra_files=save_policy_card(card))
-    partial.replace(path)
-    sidecar = sidecar_path(path)
-    sidecar.write_text(json.dumps(card, indent=2, sort_keys=True) + "\n")
-    return sidecar
+    _save_with_card(policy.module, Path(policy_path), card)
+    return sidecar_path(policy_path)
 
 
 __all__ = ["export_policy", "record_evaluation", "sidecar_path"]

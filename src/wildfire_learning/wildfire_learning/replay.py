@@ -226,8 +226,10 @@ class ReplayBuffer:
                 )
                 buffer.images[:] = images
                 buffer.states[:] = states
-                for name in ("obs_id", "next_id", "actions", "rewards", "terminated", "steps"):
+                for name in ("obs_id", "next_id", "actions", "rewards", "terminated"):
                     getattr(buffer, name)[:] = data[name]
+                if "steps" in data:  # replays saved before n-step targets hold one-step ones
+                    buffer.steps[:] = data["steps"]
                 buffer.frames_written, buffer.transitions_written = (
                     int(v) for v in data["counters"]
                 )
