@@ -103,3 +103,8 @@ def test_receding_horizon_beats_random():
     random = evaluate(make_controller("random"), config, seeds, "random")
     assert rh.scores.mean() > 1.5 * random.scores.mean()
     assert (rh.scores >= random.scores).sum() >= 3
+    # The ceiling is a property of the fire alone, and no controller scores above it.
+    np.testing.assert_array_equal(rh.score_ceilings, random.score_ceilings)
+    assert np.all(rh.scores <= rh.score_ceilings)
+    assert np.all(random.scores <= random.score_ceilings)
+    assert rh.to_json()["ceiling_fraction"] > random.to_json()["ceiling_fraction"] > 0.0

@@ -80,7 +80,8 @@ class TrainConfig:
     approach: str = "obs"
     """``obs`` (sensor image, observation-based reward) or ``belief`` (ego belief, team reward)."""
     arch: str = "paper"
-    """Network: ``paper`` (SPEC 2.5) or ``fast`` (belief only: input average-pooled to 50x50)."""
+    """Network: ``paper`` (SPEC 2.5); belief only: ``fast`` / ``lite`` (input average-pooled to
+    50x50 / 25x25)."""
     seed: int = 1
     """Seed of network initialisation, exploration, replay sampling and training episodes."""
     total_samples: int = 2_835_000

@@ -2,8 +2,16 @@
 
 All episodes run as one batch (each with its own seed, so results do not depend on how many
 run together). Reported per episode: score, flight time, belief IoU at the end (believed
-burning vs burning cells), mean belief age at the burning cells at the end; and the mean
-wall time a controller needs per aircraft decision.
+burning vs burning cells), mean belief age at the burning cells at the end, the score
+ceiling; and the mean wall time a controller needs per aircraft decision.
+
+The score ceiling of an episode is the number of cells that burn at some decision of the
+flight and were not believed burning at its start. No controller can score more: a cell
+scores when it is seen burning while believed not burning; the belief then says burning, and
+can only say "not burning" again after the cell is seen burnt out, which it stays. So every
+cell scores at most once, and only while it burns. The ceiling is not reachable either (cells
+that ignite far from the aircraft in the last seconds, cells that burn out before any
+aircraft gets there), but it tells how much of the score is still on the table.
 
 Seeds fall in three ranges: training episodes below ``VALIDATION_SEED_BASE``; the
 validation range, scored during training to draw the learning curve and keep the best
@@ -41,6 +49,8 @@ class EpisodeRecord:
     terminated: bool
     belief_iou: float
     mean_age_burning_s: float
+    score_ceiling: int
+    """Cells that burned during the flight, not believed burning at its start (score <= this)."""
     trajectory: np.ndarray | None = None
     """(decisions + 1, N, 2) positions, if recorded."""
     final_burning: np.ndarray | None = None
@@ -61,6 +71,10 @@ class EvaluationSummary:
     def scores(self) -> np.ndarray:
         return np.array([e.score for e in self.episodes], dtype=np.float64)
 
+    @property
+    def score_ceilings(self) -> np.ndarray:
+        return np.array([e.score_ceiling for e in self.episodes], dtype=np.float64)
+
     def to_json(self) -> dict[str, object]:
         scores = self.scores
         sem = float(scores.std(ddof=1) / np.sqrt(scores.size)) if scores.size > 1 else 0.0
@@ -74,6 +88,9 @@ class EvaluationSummary:
             "flight_time_s": [e.decisions / 10.0 for e in self.episodes],
             "belief_iou_mean": float(np.mean([e.belief_iou for e in self.episodes])),
             "mean_age_burning_s": float(np.nanmean([e.mean_age_burning_s for e in self.episodes])),
+            "score_ceilings": self.score_ceilings.tolist(),
+            "score_ceiling_mean": float(self.score_ceilings.mean()),
+            "ceiling_fraction": float(scores.sum() / max(self.score_ceilings.sum(), 1.0)),
             "seconds_per_decision": self.seconds_per_decision,
             "wall_time_s": self.wall_time_s,
         }
@@ -95,6 +112,8 @@ def evaluate(
     env = WildfireVecEnv(config, len(seeds))
     observations = env.reset(np.asarray(seeds))
     controller.reset(env)
+    unscorable = env.belief.burning.astype(bool)
+    burned_in_flight = env.truth.astype(bool)
     trajectory = [np.stack([env.aircraft.x_m, env.aircraft.y_m], axis=-1)] if record else []
     policy_seconds = 0.0
     aircraft_decisions = 0
@@ -106,6 +125,8 @@ def evaluate(
         policy_seconds += time.perf_counter() - tic
         aircraft_decisions += int(active.sum()) * config.n_aircraft
         observations = env.step(actions).observations
+        # Visits of this decision saw the fire after its step: count what burned then.
+        burned_in_flight |= env.truth.astype(bool) & active[:, None, None]
         if record:
             trajectory.append(np.stack([env.aircraft.x_m, env.aircraft.y_m], axis=-1))
         if progress is not None:
@@ -115,6 +136,7 @@ def evaluate(
     ious = belief_iou(env.belief.burning, env.fire.burning)
     ages = mean_age_at_burning(env.belief.age_s(), env.fire.burning)
     affected = env.fire.affected()
+    ceilings = (burned_in_flight & ~unscorable).sum(axis=(1, 2))
     summary = EvaluationSummary(
         policy=policy_name,
         seconds_per_decision=policy_seconds / max(aircraft_decisions, 1),
@@ -132,6 +154,7 @@ def evaluate(
                 terminated=bool(env.terminated[e]),
                 belief_iou=float(ious[e]),
                 mean_age_burning_s=float(ages[e]),
+                score_ceiling=int(ceilings[e]),
                 trajectory=None if path is None else path[e, : env.decisions[e] + 1],
                 final_burning=env.fire.burning[e].copy() if record else None,
                 final_affected=affected[e].copy() if record else None,

@@ -91,7 +91,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(
             f"{args.policy}: score {result['score_mean']:.1f} ± {result['score_sem']:.1f} "
-            f"(mean ± s.e., {args.episodes} episodes, {args.aircraft} aircraft, {shape.value}); "
+            f"(mean ± s.e., {args.episodes} episodes, {args.aircraft} aircraft, {shape.value}), "
+            f"{result['ceiling_fraction']:.0%} of the ceiling {result['score_ceiling_mean']:.1f}; "
             f"belief IoU {result['belief_iou_mean']:.2f}, mean age at fire "
             f"{result['mean_age_burning_s']:.1f} s, "
             f"{result['seconds_per_decision'] * 1e3:.2f} ms per decision"
