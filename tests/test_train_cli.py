@@ -203,3 +203,8 @@ def test_init_from_starts_at_the_policy_weights_and_says_so(tmp_path: Path) -> N
     assert max(float((tuned[k] - start[k]).abs().max()) for k in start) < 1e-3
     card = json.loads((second / "obs_policy.json").read_text())
     assert card["initialised_from"]["iterations"] == 3
+    # Resuming the fine-tuning run keeps its lineage in the card.
+    run_json("--resume", "--run-dir", str(second), "--iterations", "2")
+    resumed = json.loads((second / "obs_policy.json").read_text())
+    assert resumed["iterations"] == 2
+    assert resumed["initialised_from"] == card["initialised_from"]

@@ -208,6 +208,8 @@ class TrainState:
     last_loss: float = float("nan")
     curve: list[dict[str, float]] = field(default_factory=list)
     """Learning-curve rows (CURVE_FIELDS)."""
+    initialised_from: dict[str, Any] | None = None
+    """The exported policy a fine-tuning run started from (kept across ``--resume``)."""
 
 
 @dataclass
@@ -481,7 +483,7 @@ def policy_card(
         "iterations": state.iterations,
         "samples": state.samples,
         "wall_time_s": round(state.wall_time_s, 1),
-        "initialised_from": _init_summary(options.init_policy),
+        "initialised_from": state.initialised_from,
         "trained_from_bags": [str(p) for p in options.bag_dirs],
         "bag_transitions": bag_transitions,
         "offline": options.offline,
@@ -576,6 +578,7 @@ def train(
     else:
         if options.init_policy is not None:
             load_policy_weights(q_network, options.init_policy, approach, config.arch)
+            state.initialised_from = _init_summary(options.init_policy)
         target_network.load_state_dict(q_network.state_dict())
 
     bag_transitions = 0
