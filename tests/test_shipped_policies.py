@@ -47,6 +47,8 @@ def test_model_card_says_how_it_was_trained_and_how_it_scores(approach: str) -> 
     for scenario in SCENARIOS:
         result = card["test_evaluations"][scenario]
         assert result["episodes"] >= 20 and min(result["seeds"]) >= 2_000_000, scenario
+        assert all(score <= ceiling for score, ceiling
+                   in zip(result["scores"], result["score_ceilings"], strict=True)), scenario
 
 
 @pytest.mark.parametrize("approach", APPROACHES)
