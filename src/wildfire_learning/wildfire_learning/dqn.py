@@ -451,10 +451,8 @@ def write_curve(run_dir: Path, rows: list[dict[str, float]], baseline: float | N
     plt.close(fig)
 
 
-def _init_summary(path: Path | None) -> dict[str, Any] | None:
+def _init_summary(path: Path) -> dict[str, Any]:
     """What a fine-tuned run started from: the policy file and its own training figures."""
-    if path is None:
-        return None
     from wildfire_learning.export import sidecar_path
 
     card: dict[str, Any] = {}
@@ -784,7 +782,7 @@ __all__ = [
     "policy_card",
     "save_checkpoint",
     "target_iterations",
-    "upgrade_saved_config",
     "td_update",
     "train",
+    "upgrade_saved_config",
 ]
