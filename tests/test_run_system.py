@@ -102,6 +102,7 @@ def test_lockstep_run_equals_evaluate(
     )
     reference = evaluate(make_controller(name), config, [seed], record=True).episodes[0]
     assert summary["score"] == reference.score
+    assert summary["score_ceiling"] == reference.score_ceiling
     assert summary["decisions"] == reference.decisions
     assert summary["trajectory_points"] == reference.trajectory.shape[0]
     assert (tmp_path / "r.png").stat().st_size > 10_000

@@ -27,7 +27,8 @@ def test_policy_loads_with_plain_torch_and_answers(approach: str) -> None:
         "extra = {'wildfire_policy.json': ''}\n"
         f"m = torch.jit.load({str(path)!r}, _extra_files=extra)\n"
         f"q = m(torch.zeros({shape}), torch.zeros(1, 1, 5))\n"
-        "print(json.dumps({'shape': list(q.shape), 'card': json.loads(extra['wildfire_policy.json'])}))\n"
+        "card = json.loads(extra['wildfire_policy.json'])\n"
+        "print(json.dumps({'shape': list(q.shape), 'card': card}))\n"
     )
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                           timeout=120, check=True)

@@ -97,6 +97,18 @@ def mean_age_at_burning(age_s: np.ndarray, truth: np.ndarray) -> np.ndarray:
         return np.where(count > 0, total / count, np.nan)
 
 
+def score_ceiling(burned_in_flight: np.ndarray, believed_at_start: np.ndarray) -> np.ndarray:
+    """Most score a team could have made, per environment: cells that burned at some decision
+    of the flight (``burned_in_flight``) and were not believed burning at its start.
+
+    A cell scores when it is seen burning while believed not burning; the belief then says
+    burning, and says "not burning" again only once the cell is seen burnt out, which it
+    stays. So a cell scores at most once, and only while it burns.
+    """
+    scorable = np.asarray(burned_in_flight, bool) & ~np.asarray(believed_at_start, bool)
+    return scorable.sum(axis=tuple(range(1, scorable.ndim)))
+
+
 __all__ = [
     "AGE_CAP_S",
     "AGE_CAP_TICKS",
@@ -104,4 +116,5 @@ __all__ = [
     "SharedBelief",
     "belief_iou",
     "mean_age_at_burning",
+    "score_ceiling",
 ]

@@ -1,10 +1,11 @@
 """Run monitor: the launcher's own node, watching the system it started.
 
 It collects what the summary and the picture need — every aircraft's exact trajectory
-(``state_stamped``), the final truth (fire and fuel maps), the shared belief and its exact
-ages, the score, each agent's deadline statistics and the episode status. In lockstep it is
-a reporter too (``wildfire_run``): it acknowledges tick ``k`` once it holds every aircraft's
-``s_{k+1}``, so the recorder spinning in the same process never falls behind the system.
+(``state_stamped``), the final truth (fire and fuel maps), every cell that burned on any fire
+map (for the score ceiling), the shared belief and its exact ages, the score, each agent's
+deadline statistics and the episode status. In lockstep it is a reporter too
+(``wildfire_run``): it acknowledges tick ``k`` once it holds every aircraft's ``s_{k+1}``, so
+the recorder spinning in the same process never falls behind the system.
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ class RunMonitorNode(Node):
         self.states: list[dict[int, np.ndarray]] = [{} for _ in range(n_aircraft)]
         self.status: EpisodeStatus | None = None
         self.fire: np.ndarray | None = None
+        self.burned: np.ndarray | None = None
         self.fuel: np.ndarray | None = None
         self.belief: np.ndarray | None = None
         self.belief_stamp = -1
@@ -82,6 +84,7 @@ class RunMonitorNode(Node):
 
     def fire_map_callback(self, msg: Any) -> None:
         self.fire = fire_grid_from_msg(msg)
+        self.burned = self.fire.copy() if self.burned is None else self.burned | self.fire
 
     def fuel_map_callback(self, msg: Any) -> None:
         self.fuel = fuel_grid_from_msg(msg)

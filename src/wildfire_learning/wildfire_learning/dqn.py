@@ -40,6 +40,7 @@ Decisions beyond the paper (documented here, reported in the card):
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import resource
@@ -456,10 +457,9 @@ def _init_summary(path: Path) -> dict[str, Any]:
     from wildfire_learning.export import sidecar_path
 
     card: dict[str, Any] = {}
-    try:
+    # No readable sidecar: the path alone still says where the weights came from.
+    with contextlib.suppress(OSError, ValueError):
         card = json.loads(sidecar_path(path).read_text())
-    except (OSError, ValueError):
-        pass  # no readable sidecar: the path alone still says where the weights came from
     evaluation = card.get("evaluation", {})
     return {"path": str(path), "iterations": card.get("iterations"),
             "samples": card.get("samples"), "wall_time_s": card.get("wall_time_s"),

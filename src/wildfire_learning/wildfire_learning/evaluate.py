@@ -5,13 +5,11 @@ run together). Reported per episode: score, flight time, belief IoU at the end (
 burning vs burning cells), mean belief age at the burning cells at the end, the score
 ceiling; and the mean wall time a controller needs per aircraft decision.
 
-The score ceiling of an episode is the number of cells that burn at some decision of the
-flight and were not believed burning at its start. No controller can score more: a cell
-scores when it is seen burning while believed not burning; the belief then says burning, and
-can only say "not burning" again after the cell is seen burnt out, which it stays. So every
-cell scores at most once, and only while it burns. The ceiling is not reachable either (cells
-that ignite far from the aircraft in the last seconds, cells that burn out before any
-aircraft gets there), but it tells how much of the score is still on the table.
+The score ceiling of an episode (``wildfire_belief.belief.score_ceiling``) is the number of
+cells that burn at some decision of the flight and were not believed burning at its start.
+No controller can score more. It is not reachable either (cells that ignite far from the
+aircraft in the last seconds, cells that burn out before any aircraft gets there), but it
+tells how much of the score is still on the table.
 
 Seeds fall in three ranges: training episodes below ``VALIDATION_SEED_BASE``; the
 validation range, scored during training to draw the learning curve and keep the best
@@ -27,7 +25,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from wildfire_belief.belief import belief_iou, mean_age_at_burning
+from wildfire_belief.belief import belief_iou, mean_age_at_burning, score_ceiling
 from wildfire_learning.controllers import Controller
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 
@@ -112,7 +110,7 @@ def evaluate(
     env = WildfireVecEnv(config, len(seeds))
     observations = env.reset(np.asarray(seeds))
     controller.reset(env)
-    unscorable = env.belief.burning.astype(bool)
+    believed_at_start = env.belief.burning.copy()
     burned_in_flight = env.truth.astype(bool)
     trajectory = [np.stack([env.aircraft.x_m, env.aircraft.y_m], axis=-1)] if record else []
     policy_seconds = 0.0
@@ -136,7 +134,7 @@ def evaluate(
     ious = belief_iou(env.belief.burning, env.fire.burning)
     ages = mean_age_at_burning(env.belief.age_s(), env.fire.burning)
     affected = env.fire.affected()
-    ceilings = (burned_in_flight & ~unscorable).sum(axis=(1, 2))
+    ceilings = score_ceiling(burned_in_flight, believed_at_start)
     summary = EvaluationSummary(
         policy=policy_name,
         seconds_per_decision=policy_seconds / max(aircraft_decisions, 1),

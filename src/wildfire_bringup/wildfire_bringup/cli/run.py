@@ -147,7 +147,7 @@ def build_spec(args: argparse.Namespace) -> Any:
 
 def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> dict[str, Any]:
     """Summary metrics of a finished run (SPEC 2.7 score and trajectory-derived metrics)."""
-    from wildfire_belief.belief import belief_iou, mean_age_at_burning
+    from wildfire_belief.belief import belief_iou, mean_age_at_burning, score_ceiling
     from wildfire_sim.episode import initial_fire
 
     trajectory = monitor.trajectory()
@@ -196,8 +196,14 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         decided = sum(v.get("decisions", 0) for v in monitor.deadlines.values())
         missed = sum(v.get("missed", 0) for v in monitor.deadlines.values())
         result["missed_deadline_fraction"] = missed / decided if decided else 0.0
+    ignition = initial_fire(spec.seed, spec.shape, spec.wind)
+    if monitor.burned is not None:
+        # The belief starts as the ignition seed (SPEC 2.4), as in the aggregator.
+        ceiling = score_ceiling(monitor.burned[None], ignition.burning)[0]
+        result["score_ceiling"] = int(ceiling)
+        result["ceiling_fraction"] = result["score"] / max(int(ceiling), 1)
     if monitor.fuel is not None:
-        initial = initial_fire(spec.seed, spec.shape, spec.wind).initial_fuel[0]
+        initial = ignition.initial_fuel[0]
         result["_affected"] = (monitor.fuel < initial) | (
             monitor.fire if monitor.fire is not None else False
         )
@@ -249,9 +255,15 @@ def run(args: argparse.Namespace) -> int:
         print_json(result)
     else:
         missed = result.get("missed_deadline_fraction")
+        ceiling = (
+            f" ({result['ceiling_fraction']:.0%} of the ceiling {result['score_ceiling']})"
+            if "score_ceiling" in result
+            else ""
+        )
         print(
             f"{args.policy}, {spec.n_aircraft} aircraft, {spec.shape}, seed {spec.seed} "
-            f"({spec.mode}): score {result['score']} after {result['flight_time_s']:.1f} s "
+            f"({spec.mode}): score {result['score']}{ceiling} "
+            f"after {result['flight_time_s']:.1f} s "
             f"({result['end']}); belief IoU {result.get('belief_iou', float('nan')):.2f}; "
             f"{result['wall_time_s']:.1f} s wall ({result['speedup']:.1f}x real time)"
             + (f"; missed deadlines {100 * missed:.2f} %" if missed is not None else "")
