@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 WILDFIRE = [str(Path(sys.executable).with_name("wildfire"))]
@@ -82,6 +83,8 @@ def test_eval_json(tmp_path):
         (["eval", "--aircraft", "0"], "--aircraft"),
         (["eval", "--episodes", "-1"], "--episodes"),
         (["eval", "--policy", "rh", "--card"], "--card: policy rh has no model card"),
+        (["eval", "--max-wind", "1.5"], "--max-wind"),
+        (["run", "--wind", "0,0", "--max-wind", "0.4"], "not allowed with argument --wind"),
     ],
 )
 def test_bad_input_is_one_line_with_status_2(args, needle):
@@ -124,3 +127,14 @@ def test_eval_card_records_the_result_in_both_copies_of_the_card(tmp_path):
     recorded = sidecar["test_evaluations"]["t_3aircraft"]
     assert recorded["scores"] == summary["scores"] and recorded["seeds"] == [2_000_000, 2_000_001]
     assert TorchScriptPolicy(policy).card == sidecar
+
+    # Another wind setting is recorded next to the default one, never over it.
+    result = run("eval", "--policy", str(policy), "--shape", "t", "--aircraft", "3",
+                 "--episodes", "2", "--duration", "5", "--max-wind", "0.4", "--card", "--json")
+    assert result.returncode == 0, result.stderr
+    weaker = json.loads(result.stdout)
+    evaluations = json.loads(policy.with_suffix(".json").read_text())["test_evaluations"]
+    assert evaluations["t_3aircraft"] == recorded
+    assert evaluations["t_3aircraft_maxwind0.4"]["scores"] == weaker["scores"]
+    # The same seeds draw the same winds, scaled to the smaller bound.
+    assert np.allclose(np.array(weaker["winds"]), 0.5 * np.array(summary["winds"]))

@@ -84,6 +84,7 @@ class EvaluationSummary:
             "score_mean": float(scores.mean()),
             "score_sem": sem,
             "flight_time_s": [e.decisions / 10.0 for e in self.episodes],
+            "winds": [list(e.wind) for e in self.episodes],
             "belief_iou_mean": float(np.mean([e.belief_iou for e in self.episodes])),
             "mean_age_burning_s": float(np.nanmean([e.mean_age_burning_s for e in self.episodes])),
             "score_ceilings": self.score_ceilings.tolist(),

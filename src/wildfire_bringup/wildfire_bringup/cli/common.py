@@ -87,10 +87,22 @@ def wind_vector(text: str) -> tuple[float, float]:
     return wx, wy
 
 
+def wind_bound(text: str) -> float:
+    """argparse type: a number in [0, 1], the bound of each random wind component."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number in [0, 1], got {text!r}") from None
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"expected a number in [0, 1], got {text}")
+    return value
+
+
 def add_episode_arguments(
     parser: argparse.ArgumentParser, default_seed: int, seed_help: str
 ) -> None:
-    """The scenario arguments ``eval`` and ``run`` share: policy, team, fire, seed, duration."""
+    """The scenario arguments ``eval`` and ``run`` share: policy, team, fire, wind, seed,
+    duration (``scenario_settings`` turns them into ``EnvConfig`` fields)."""
     parser.add_argument(
         "--policy",
         default="rh",
@@ -98,12 +110,21 @@ def add_episode_arguments(
     )
     parser.add_argument("--aircraft", type=positive_int, default=2, metavar="N")
     parser.add_argument("--shape", default="circular", help="circular, t or arc")
-    parser.add_argument(
+    winds = parser.add_mutually_exclusive_group()
+    winds.add_argument(
         "--wind",
         type=wind_vector,
         default=None,
         metavar="WX,WY",
-        help="fixed wind; by default each seed draws it in [-0.8, 0.8]^2",
+        help="fixed wind; by default each seed draws it in [-W, W]^2 (see --max-wind)",
+    )
+    winds.add_argument(
+        "--max-wind",
+        type=wind_bound,
+        default=None,
+        metavar="W",
+        help="bound W of each random wind component (default 0.8, the training range); a "
+        "seed keeps its draw, so a smaller W flies the same episodes under weaker wind",
     )
     parser.add_argument(
         "--seed", type=non_negative_int, default=default_seed, metavar="S", help=seed_help
@@ -115,6 +136,19 @@ def add_episode_arguments(
         metavar="SEC",
         help="longest flight in seconds (the fire reaching the border ends it too)",
     )
+
+
+def scenario_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """``EnvConfig`` fields set by the arguments of ``add_episode_arguments`` (but the shape);
+    an unset ``--max-wind`` keeps the environment's default."""
+    settings: dict[str, Any] = {
+        "n_aircraft": args.aircraft,
+        "wind": args.wind,
+        "max_duration_s": args.duration,
+    }
+    if args.max_wind is not None:
+        settings["max_wind"] = args.max_wind
+    return settings
 
 
 def print_json(payload: dict[str, Any]) -> None:

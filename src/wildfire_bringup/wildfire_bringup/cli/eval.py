@@ -9,6 +9,7 @@ from wildfire_bringup.cli.common import (
     add_episode_arguments,
     positive_int,
     print_json,
+    scenario_settings,
 )
 from wildfire_bringup.cli.progress import progress_bar
 from wildfire_learning.controllers import make_controller, resolve_policy_path
@@ -34,9 +35,23 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--png", metavar="FILE", help="draw the first episode")
     parser.add_argument("--card", action="store_true",
                         help="record the result in the policy's JSON model card (key "
-                        "test_evaluations.<shape>_<N>aircraft); Q-network policies only")
+                        "test_evaluations.<shape>_<N>aircraft, with _wind<WX,WY> or "
+                        "_maxwind<W> appended for those); Q-network policies only")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
+
+
+def card_key(
+    shape: str, aircraft: int, wind: tuple[float, float] | None, max_wind: float | None
+) -> str:
+    """Key of an evaluation in a model card: ``circular_2aircraft`` under the default random
+    wind, with the wind setting appended otherwise (so it never replaces the default's)."""
+    key = f"{shape}_{aircraft}aircraft"
+    if wind is not None:
+        return f"{key}_wind{wind[0]:g},{wind[1]:g}"
+    if max_wind is not None:
+        return f"{key}_maxwind{max_wind:g}"
+    return key
 
 
 def run(args: argparse.Namespace) -> int:
@@ -44,12 +59,7 @@ def run(args: argparse.Namespace) -> int:
     controller = make_controller(args.policy)
     if args.card and args.policy in ("rh", "random"):
         raise UserError(f"--card: policy {args.policy} has no model card (a Q-network has)")
-    config = EnvConfig(
-        n_aircraft=args.aircraft,
-        shapes=(shape.value,),
-        wind=args.wind,
-        max_duration_s=args.duration,
-    )
+    config = EnvConfig(shapes=(shape.value,), **scenario_settings(args)).validate()
     seeds = list(range(args.seed, args.seed + args.episodes))
     with progress_bar(f"eval {args.policy}", config.max_decisions, enabled=not args.json) as bar:
         summary = evaluate(
@@ -78,11 +88,13 @@ def run(args: argparse.Namespace) -> int:
         "aircraft": args.aircraft,
         "shape": shape.value,
         "duration_s": args.duration,
+        "wind": config.wind,
+        "max_wind": config.max_wind,
     }
     if args.card:
         from wildfire_learning.export import record_evaluation
 
-        scenario = f"{shape.value}_{args.aircraft}aircraft"
+        scenario = card_key(shape.value, args.aircraft, args.wind, args.max_wind)
         card = record_evaluation(resolve_policy_path(args.policy), scenario, result)
         if not args.json:
             print(f"recorded {scenario} in {card}")

@@ -18,7 +18,12 @@ from typing import Any
 import numpy as np
 import yaml
 
-from wildfire_bringup.cli.common import UserError, add_episode_arguments, print_json
+from wildfire_bringup.cli.common import (
+    UserError,
+    add_episode_arguments,
+    print_json,
+    scenario_settings,
+)
 from wildfire_bringup.cli.progress import progress_bar
 
 
@@ -121,12 +126,7 @@ def build_spec(args: argparse.Namespace) -> Any:
     policy = resolve_policy(args.policy)
     if args.respawn and not args.realtime:
         raise UserError("--respawn: only with --realtime (lockstep runs are exact replays)")
-    config = EnvConfig(
-        n_aircraft=args.aircraft,
-        shapes=(shape.value,),
-        wind=args.wind,
-        max_duration_s=args.duration,
-    ).validate()
+    config = EnvConfig(shapes=(shape.value,), **scenario_settings(args)).validate()
     scenario = draw_scenario(args.seed, config)
     start = np.stack([scenario.start.x_m, scenario.start.y_m, scenario.start.heading_rad], axis=1)
     return RunSpec(
