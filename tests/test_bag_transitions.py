@@ -42,7 +42,12 @@ def _state(env: WildfireVecEnv, k: int) -> np.ndarray:
 
 
 def record_rollout(
-    bag: Path, config: EnvConfig, seed: int, decisions: int, *, start_pose: bool = True,
+    bag: Path,
+    config: EnvConfig,
+    seed: int,
+    decisions: int,
+    *,
+    start_pose: bool = True,
     bank_cmds: bool = True,
 ) -> Rollout:
     """Fly random actions and write what the nodes publish in lockstep mode."""
@@ -51,8 +56,12 @@ def record_rollout(
     codec = ImageCodec.for_approach(config.observation)
     rng = np.random.default_rng(seed)
     n = config.n_aircraft
-    images, states, actions, rewards = [codec.encode(observations["image"][0])], [
-        observations["state"][0]], [], []
+    images, states, actions, rewards = (
+        [codec.encode(observations["image"][0])],
+        [observations["state"][0]],
+        [],
+        [],
+    )
     with BagWriter(bag) as writer:
         for spec, latched in ((contract.FIRE_MAP, True), (contract.BELIEF, True)):
             writer.add_topic(spec.name, spec.type, transient_local=latched, depth=1)
@@ -60,36 +69,53 @@ def record_rollout(
             writer.add_topic(contract.STATE.resolve(k), contract.STATE.type)
             if bank_cmds:
                 writer.add_topic(contract.BANK_CMD.resolve(k), contract.BANK_CMD.type)
-        writer.write(contract.FIRE_MAP.name, 1,
-                     serialize(codecs.fire_grid_to_msg(env.fire.burning[0], 0)))
-        writer.write(contract.BELIEF.name, 2,
-                     serialize(codecs.belief_to_msg(env.belief.burning[0], 0)))
+        writer.write(
+            contract.FIRE_MAP.name, 1, serialize(codecs.fire_grid_to_msg(env.fire.burning[0], 0))
+        )
+        writer.write(
+            contract.BELIEF.name, 2, serialize(codecs.belief_to_msg(env.belief.burning[0], 0))
+        )
         if start_pose:
             for k in range(n):
-                writer.write(contract.STATE.resolve(k), 3,
-                             serialize(codecs.state_to_msg(_state(env, k))))
+                writer.write(
+                    contract.STATE.resolve(k), 3, serialize(codecs.state_to_msg(_state(env, k)))
+                )
         for t in range(1, decisions + 1):
             action = rng.integers(0, 2, size=(1, n))
             result = env.step(action)
             time_ns = t * DECISION_NS
             if t % DECISIONS_PER_FIRE_STEP == 0:
                 # The simulator publishes the new fire before the agents report the tick.
-                writer.write(contract.FIRE_MAP.name, time_ns,
-                             serialize(codecs.fire_grid_to_msg(env.fire.burning[0], time_ns)))
+                writer.write(
+                    contract.FIRE_MAP.name,
+                    time_ns,
+                    serialize(codecs.fire_grid_to_msg(env.fire.burning[0], time_ns)),
+                )
             for k in range(n):
                 if bank_cmds:
-                    writer.write(contract.BANK_CMD.resolve(k), time_ns + 1,
-                                 serialize(codecs.bank_cmd_to_msg(_state(env, k)[3])))
-                writer.write(contract.STATE.resolve(k), time_ns + 2,
-                             serialize(codecs.state_to_msg(_state(env, k))))
+                    writer.write(
+                        contract.BANK_CMD.resolve(k),
+                        time_ns + 1,
+                        serialize(codecs.bank_cmd_to_msg(_state(env, k)[3])),
+                    )
+                writer.write(
+                    contract.STATE.resolve(k),
+                    time_ns + 2,
+                    serialize(codecs.state_to_msg(_state(env, k))),
+                )
             images.append(codec.encode(result.observations["image"][0]))
             states.append(result.observations["state"][0])
             actions.append(action[0])
             rewards.append(result.rewards[0])
             if env.done[0]:
                 break
-    return Rollout(np.stack(images), np.stack(states), np.array(actions), np.array(rewards),
-                   bool(env.terminated[0]))
+    return Rollout(
+        np.stack(images),
+        np.stack(states),
+        np.array(actions),
+        np.array(rewards),
+        bool(env.terminated[0]),
+    )
 
 
 @pytest.mark.parametrize("approach", ["obs", "belief"])
@@ -167,10 +193,27 @@ def test_cli_trains_offline_from_a_bag(tmp_path: Path) -> None:
     config = EnvConfig(shapes=("circular",))
     rollout = record_rollout(tmp_path / "bag", config, seed=2, decisions=80)
     out = tmp_path / "from_bag.pt"
-    command = [WILDFIRE, "train", "--approach", "obs",
-               "--from-bag", str(tmp_path / "bag"), "--iterations", "5", "--batch-size", "8",
-               "--eval-episodes", "1", "--episode-seconds", "3", "--run-dir",
-               str(tmp_path / "run"), "--out", str(out), "--json"]
+    command = [
+        WILDFIRE,
+        "train",
+        "--approach",
+        "obs",
+        "--from-bag",
+        str(tmp_path / "bag"),
+        "--iterations",
+        "5",
+        "--batch-size",
+        "8",
+        "--eval-episodes",
+        "1",
+        "--episode-seconds",
+        "3",
+        "--run-dir",
+        str(tmp_path / "run"),
+        "--out",
+        str(out),
+        "--json",
+    ]
     done = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     summary = json.loads(done.stdout)
@@ -179,8 +222,12 @@ def test_cli_trains_offline_from_a_bag(tmp_path: Path) -> None:
     assert out.is_file() and out.with_suffix(".json").is_file()
 
     command[command.index("--run-dir") + 1] = str(tmp_path / "run2")
-    missing = subprocess.run([*command[:5], str(tmp_path / "nope"), *command[6:]],
-                             capture_output=True, text=True, timeout=60)
+    missing = subprocess.run(
+        [*command[:5], str(tmp_path / "nope"), *command[6:]],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert missing.returncode == 2
     assert missing.stderr.strip().count("\n") == 0 and "no such directory" in missing.stderr
 
@@ -190,29 +237,51 @@ def _replay_in_env(config: EnvConfig, seed: int, actions: np.ndarray) -> Rollout
     env = WildfireVecEnv(config, 1)
     observations = env.reset([seed])
     codec = ImageCodec.for_approach(config.observation)
-    images, states, rewards = [codec.encode(observations["image"][0])], [
-        observations["state"][0]], []
+    images, states, rewards = (
+        [codec.encode(observations["image"][0])],
+        [observations["state"][0]],
+        [],
+    )
     for action in actions:
         result = env.step(action[None])
         images.append(codec.encode(result.observations["image"][0]))
         states.append(result.observations["state"][0])
         rewards.append(result.rewards[0])
-    return Rollout(np.stack(images), np.stack(states), actions, np.array(rewards),
-                   bool(env.terminated[0]))
+    return Rollout(
+        np.stack(images), np.stack(states), actions, np.array(rewards), bool(env.terminated[0])
+    )
 
 
 def test_bag_recorded_by_wildfire_run_rebuilds_environment_transitions(tmp_path: Path) -> None:
     """A real lockstep recording (`wildfire run --fast --record`) against the environment."""
     bag = tmp_path / "run"
     done = subprocess.run(
-        [WILDFIRE, "run", "--aircraft", "2", "--policy", "random", "--seed", "7",
-         "--duration", "6", "--fast", "--record", str(bag), "--json"],
-        capture_output=True, text=True, timeout=120, check=False,
+        [
+            WILDFIRE,
+            "run",
+            "--aircraft",
+            "2",
+            "--policy",
+            "random",
+            "--seed",
+            "7",
+            "--duration",
+            "6",
+            "--fast",
+            "--record",
+            str(bag),
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
     )
     assert done.returncode == 0, done.stderr
     for approach in ("obs", "belief"):
-        config = EnvConfig(observation=approach, reward=approach, shapes=("circular",),
-                           max_duration_s=6.0)
+        config = EnvConfig(
+            observation=approach, reward=approach, shapes=("circular",), max_duration_s=6.0
+        )
         sequences = transitions_from_bags([bag], approach, config)
         actions = np.stack([s.actions for s in sequences], axis=1)
         assert actions.shape == (60, 2)

@@ -119,8 +119,21 @@ def test_eval_card_records_the_result_in_both_copies_of_the_card(tmp_path):
 
     torch.manual_seed(0)
     policy = export_policy(build_q_network("obs"), tmp_path / "obs.pt", {"approach": "obs"})
-    result = run("eval", "--policy", str(policy), "--shape", "t", "--aircraft", "3",
-                 "--episodes", "2", "--duration", "5", "--card", "--json")
+    result = run(
+        "eval",
+        "--policy",
+        str(policy),
+        "--shape",
+        "t",
+        "--aircraft",
+        "3",
+        "--episodes",
+        "2",
+        "--duration",
+        "5",
+        "--card",
+        "--json",
+    )
     assert result.returncode == 0, result.stderr
     summary = json.loads(result.stdout)
     sidecar = json.loads(policy.with_suffix(".json").read_text())
@@ -129,8 +142,23 @@ def test_eval_card_records_the_result_in_both_copies_of_the_card(tmp_path):
     assert TorchScriptPolicy(policy).card == sidecar
 
     # Another wind setting is recorded next to the default one, never over it.
-    result = run("eval", "--policy", str(policy), "--shape", "t", "--aircraft", "3",
-                 "--episodes", "2", "--duration", "5", "--max-wind", "0.4", "--card", "--json")
+    result = run(
+        "eval",
+        "--policy",
+        str(policy),
+        "--shape",
+        "t",
+        "--aircraft",
+        "3",
+        "--episodes",
+        "2",
+        "--duration",
+        "5",
+        "--max-wind",
+        "0.4",
+        "--card",
+        "--json",
+    )
     assert result.returncode == 0, result.stderr
     weaker = json.loads(result.stdout)
     evaluations = json.loads(policy.with_suffix(".json").read_text())["test_evaluations"]

@@ -12,8 +12,13 @@ import pytest
 MODELS = Path(__file__).resolve().parents[1] / "models"
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))
 APPROACHES = ("obs", "belief")
-SCENARIOS = ("circular_2aircraft", "t_2aircraft", "arc_2aircraft", "circular_3aircraft",
-             "circular_4aircraft")
+SCENARIOS = (
+    "circular_2aircraft",
+    "t_2aircraft",
+    "arc_2aircraft",
+    "circular_3aircraft",
+    "circular_4aircraft",
+)
 
 
 @pytest.mark.parametrize("approach", APPROACHES)
@@ -30,8 +35,9 @@ def test_policy_loads_with_plain_torch_and_answers(approach: str) -> None:
         "card = json.loads(extra['wildfire_policy.json'])\n"
         "print(json.dumps({'shape': list(q.shape), 'card': card}))\n"
     )
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          timeout=120, check=True)
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=True
+    )
     answer = json.loads(done.stdout)
     assert answer["shape"] == [1, 1, 2]
     assert answer["card"] == json.loads(path.with_suffix(".json").read_text())
@@ -41,21 +47,26 @@ def test_policy_loads_with_plain_torch_and_answers(approach: str) -> None:
 def test_model_card_says_how_it_was_trained_and_how_it_scores(approach: str) -> None:
     card = json.loads((MODELS / f"{approach}_policy.json").read_text())
     assert card["approach"] == approach
-    for key in ("config", "iterations", "samples", "wall_time_s", "evaluation",
-                "learning_curve"):
+    for key in ("config", "iterations", "samples", "wall_time_s", "evaluation", "learning_curve"):
         assert card[key], key
     assert card["config"]["approach"] == approach
     for scenario in SCENARIOS:
         result = card["test_evaluations"][scenario]
         assert result["episodes"] >= 20 and min(result["seeds"]) >= 2_000_000, scenario
-        assert all(score <= ceiling for score, ceiling
-                   in zip(result["scores"], result["score_ceilings"], strict=True)), scenario
+        assert all(
+            score <= ceiling
+            for score, ceiling in zip(result["scores"], result["score_ceilings"], strict=True)
+        ), scenario
 
 
 @pytest.mark.parametrize("approach", APPROACHES)
 def test_eval_flies_the_shipped_policy_by_name(approach: str) -> None:
-    done = subprocess.run([WILDFIRE, "eval", "--policy", approach, "--episodes", "1",
-                           "--duration", "5", "--json"], capture_output=True, text=True,
-                          timeout=240, check=False)
+    done = subprocess.run(
+        [WILDFIRE, "eval", "--policy", approach, "--episodes", "1", "--duration", "5", "--json"],
+        capture_output=True,
+        text=True,
+        timeout=240,
+        check=False,
+    )
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["policy"] == approach

@@ -18,13 +18,26 @@ from wildfire_learning.dqn import CHECKPOINT_FILE, CURVE_CSV, CURVE_PNG, load_ch
 
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))
 # Seconds-long runs: few envs, a small replay, short episodes, one evaluation episode.
-TINY = ["--num-envs", "2", "--buffer-size", "400", "--learning-starts", "100",
-        "--eval-episodes", "1", "--episode-seconds", "4", "--target-network-frequency", "3"]
+TINY = [
+    "--num-envs",
+    "2",
+    "--buffer-size",
+    "400",
+    "--learning-starts",
+    "100",
+    "--eval-episodes",
+    "1",
+    "--episode-seconds",
+    "4",
+    "--target-network-frequency",
+    "3",
+]
 
 
 def wildfire_train(*args: str, timeout: float = 150) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([WILDFIRE, "train", *args], capture_output=True, text=True,
-                          timeout=timeout, check=False)
+    return subprocess.run(
+        [WILDFIRE, "train", *args], capture_output=True, text=True, timeout=timeout, check=False
+    )
 
 
 def run_json(*args: str) -> dict:
@@ -35,15 +48,18 @@ def run_json(*args: str) -> dict:
 
 @pytest.mark.parametrize(
     ("approach", "extra"),
-    [("obs", ["--iterations", "12"]),
-     ("belief", ["--iterations", "3", "--batch-size", "4", "--arch", "paper"])],
+    [
+        ("obs", ["--iterations", "12"]),
+        ("belief", ["--iterations", "3", "--batch-size", "4", "--arch", "paper"]),
+    ],
 )
 def test_train_smoke_writes_policy_curve_and_checkpoint(
     tmp_path: Path, approach: str, extra: list[str]
 ) -> None:
     run_dir = tmp_path / "run"
-    summary = run_json("--approach", approach, *TINY, *extra, "--run-dir", str(run_dir),
-                       "--baseline", "123.5")
+    summary = run_json(
+        "--approach", approach, *TINY, *extra, "--run-dir", str(run_dir), "--baseline", "123.5"
+    )
     iterations = int(extra[1])
     assert summary["iterations"] == iterations
     # One iteration per 10 samples after the 100-sample prefill (a step adds 4 samples).
@@ -61,8 +77,17 @@ def test_train_smoke_writes_policy_curve_and_checkpoint(
 
 def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> None:
     run_dir = tmp_path / "run"
-    first = run_json("--approach", "obs", *TINY, "--iterations", "6", "--eval-every", "3",
-                     "--run-dir", str(run_dir))
+    first = run_json(
+        "--approach",
+        "obs",
+        *TINY,
+        "--iterations",
+        "6",
+        "--eval-every",
+        "3",
+        "--run-dir",
+        str(run_dir),
+    )
     before = load_checkpoint(run_dir)
     second = run_json("--resume", "--run-dir", str(run_dir), "--iterations", "10")
     assert second["iterations"] == 10
@@ -78,7 +103,8 @@ def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> 
     # Every evaluation exported the network; the best-scoring one is kept too.
     best = json.loads((run_dir / "best_obs_policy.json").read_text())
     assert best["evaluation"]["score_mean"] == max(
-        r["score_mean"] for r in second["learning_curve"])
+        r["score_mean"] for r in second["learning_curve"]
+    )
 
     # The export opens with plain torch (no project module imported) ...
     policy = run_dir / "obs_policy.pt"
@@ -95,8 +121,13 @@ def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> 
         "assert not [k for k in sys.modules if k.startswith('wildfire')]\n"
         "print(json.dumps({'q': q.tolist(), 'card': json.loads(files['wildfire_policy.json'])}))\n"
     )
-    done = subprocess.run([sys.executable, "-I", "-c", script], capture_output=True, text=True,
-                          timeout=60, check=False)
+    done = subprocess.run(
+        [sys.executable, "-I", "-c", script],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
     assert done.returncode == 0, done.stderr
     loaded = json.loads(done.stdout)
     assert loaded["card"]["approach"] == "obs" and loaded["card"]["iterations"] == 10
@@ -111,15 +142,24 @@ def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> 
 def test_help_lists_every_hyperparameter() -> None:
     done = wildfire_train("--help", timeout=60)
     assert done.returncode == 0, done.stderr
-    for option in ("--total-samples", "--iterations", "--num-envs", "--lr", "--buffer-size",
-                   "--learning-starts", "--train-frequency", "--exploration-samples",
-                   "--target-network-frequency", "--from-bag", "--resume", "--baseline"):
+    for option in (
+        "--total-samples",
+        "--iterations",
+        "--num-envs",
+        "--lr",
+        "--buffer-size",
+        "--learning-starts",
+        "--train-frequency",
+        "--exploration-samples",
+        "--target-network-frequency",
+        "--from-bag",
+        "--resume",
+        "--baseline",
+    ):
         assert option in done.stdout, option
 
 
-def test_bad_inputs_are_one_line_errors(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def test_bad_inputs_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     run_dir = tmp_path / "run"
     run_json("--approach", "obs", *TINY, "--iterations", "2", "--run-dir", str(run_dir))
     cases = [
@@ -127,15 +167,32 @@ def test_bad_inputs_are_one_line_errors(
         (["--resume", "--run-dir", str(tmp_path / "none")], "no checkpoint"),
         (["--approach", "obs", "--run-dir", str(run_dir)], "holds a run already"),
         (["--approach", "obs", "--from-bag", str(tmp_path)], "--iterations"),
-        (["--approach", "obs", "--shapes", "hexagon", "--run-dir", str(tmp_path / "x")],
-         "hexagon"),
+        (["--approach", "obs", "--shapes", "hexagon", "--run-dir", str(tmp_path / "x")], "hexagon"),
         (["--approach", "obs", "--arch", "fast", "--run-dir", str(tmp_path / "y")], "fast"),
         (["--baseline", "nothing.json", "--run-dir", str(tmp_path / "z")], "--baseline"),
         (["--lr", "-1"], "expected a number > 0"),
-        (["--approach", "belief", "--init-from", str(run_dir / "obs_policy.pt"),
-          "--run-dir", str(tmp_path / "w")], "a obs/paper policy, this run trains belief"),
-        (["--approach", "obs", "--init-from", str(tmp_path / "none.pt"),
-          "--run-dir", str(tmp_path / "v")], "no such file"),
+        (
+            [
+                "--approach",
+                "belief",
+                "--init-from",
+                str(run_dir / "obs_policy.pt"),
+                "--run-dir",
+                str(tmp_path / "w"),
+            ],
+            "a obs/paper policy, this run trains belief",
+        ),
+        (
+            [
+                "--approach",
+                "obs",
+                "--init-from",
+                str(tmp_path / "none.pt"),
+                "--run-dir",
+                str(tmp_path / "v"),
+            ],
+            "no such file",
+        ),
     ]
     (tmp_path / "corrupt").mkdir()
     (tmp_path / "corrupt" / CHECKPOINT_FILE).write_bytes(b"\x00garbage")
@@ -155,9 +212,22 @@ def test_bad_inputs_are_one_line_errors(
 def test_interrupted_run_checkpoints_and_resumes(tmp_path: Path) -> None:
     run_dir = tmp_path / "run"
     process = subprocess.Popen(
-        [WILDFIRE, "train", "--approach", "obs", *TINY, "--iterations", "100000",
-         "--run-dir", str(run_dir), "--log-every", "0.2"],
-        stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+        [
+            WILDFIRE,
+            "train",
+            "--approach",
+            "obs",
+            *TINY,
+            "--iterations",
+            "100000",
+            "--run-dir",
+            str(run_dir),
+            "--log-every",
+            "0.2",
+        ],
+        stderr=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        text=True,
     )
     try:
         assert process.stderr is not None
@@ -196,8 +266,17 @@ def test_init_from_starts_at_the_policy_weights_and_says_so(tmp_path: Path) -> N
     run_json("--approach", "obs", *TINY, "--iterations", "3", "--run-dir", str(first))
     start = torch.jit.load(str(first / "obs_policy.pt")).state_dict()
     second = tmp_path / "second"
-    run_json("--approach", "obs", *TINY, "--iterations", "1", "--run-dir", str(second),
-             "--init-from", str(first / "obs_policy.pt"))
+    run_json(
+        "--approach",
+        "obs",
+        *TINY,
+        "--iterations",
+        "1",
+        "--run-dir",
+        str(second),
+        "--init-from",
+        str(first / "obs_policy.pt"),
+    )
     tuned = torch.jit.load(str(second / "obs_policy.pt")).state_dict()
     # One AdaMax step moves a weight by at most about the learning rate.
     assert max(float((tuned[k] - start[k]).abs().max()) for k in start) < 1e-3

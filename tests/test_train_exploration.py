@@ -33,8 +33,10 @@ def test_random_actions_are_held_in_runs() -> None:
     assert np.mean(runs) > 8
     rng = np.random.default_rng(1)
     exploration = PersistentExploration(1, 1, 5)
-    actions = [int(exploration.actions(np.zeros((1, 1), dtype=np.int64), 1.0, rng)[0, 0])
-               for _ in range(200)]
+    actions = [
+        int(exploration.actions(np.zeros((1, 1), dtype=np.int64), 1.0, rng)[0, 0])
+        for _ in range(200)
+    ]
     # With epsilon 1 every decision is random, held for 1..5 decisions: runs of equal actions.
     changes = np.count_nonzero(np.diff(actions))
     assert changes < 200 / 2

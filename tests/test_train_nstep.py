@@ -10,8 +10,9 @@ from wildfire_learning.nstep import NStepAccumulator
 GAMMA = 0.9
 
 
-def _play(episode_lengths: list[int], n_aircraft: int, n_step: int,
-          terminating: set[int]) -> tuple[list[tuple], list[tuple]]:
+def _play(
+    episode_lengths: list[int], n_aircraft: int, n_step: int, terminating: set[int]
+) -> tuple[list[tuple], list[tuple]]:
     """Feed random decisions of one episode per environment; return (released, expected)."""
     rng = np.random.default_rng(0)
     num_envs = len(episode_lengths)
@@ -31,8 +32,9 @@ def _play(episode_lengths: list[int], n_aircraft: int, n_step: int,
         terminated = ended & np.isin(active, list(terminating))
         for row, env in enumerate(active):
             history[env].append((frame[env].copy(), actions[row], rewards[row], next_ids[row]))
-        ready = accumulator.push(active, frame[active], actions, rewards, next_ids,
-                                 terminated, ended)
+        ready = accumulator.push(
+            active, frame[active], actions, rewards, next_ids, terminated, ended
+        )
         released += [tuple(float(v) for v in row) for row in zip(*ready, strict=True)]
         frame[active] = next_ids
         done[active] |= ended
@@ -44,8 +46,16 @@ def _play(episode_lengths: list[int], n_aircraft: int, n_step: int,
             for k in range(n_aircraft):
                 ret = sum(GAMMA ** (j - t) * steps[j][2][k] for j in range(t, last))
                 end = float(env in terminating and last == len(steps))
-                expected.append((float(steps[t][0][k]), float(steps[t][1][k]), ret, end,
-                                 float(steps[last - 1][3][k]), float(last - t)))
+                expected.append(
+                    (
+                        float(steps[t][0][k]),
+                        float(steps[t][1][k]),
+                        ret,
+                        end,
+                        float(steps[last - 1][3][k]),
+                        float(last - t),
+                    )
+                )
     return released, expected
 
 
@@ -62,9 +72,15 @@ def test_every_decision_is_released_once_with_its_n_step_return(n_step: int) -> 
 
 def test_one_step_accumulator_releases_at_once() -> None:
     accumulator = NStepAccumulator(1, 2, 1, GAMMA)
-    ready = accumulator.push(np.array([0]), np.array([[0, 1]]), np.array([[1, 0]]),
-                             np.array([[0.5, -1.0]]), np.array([[2, 3]]),
-                             np.array([False]), np.array([False]))
+    ready = accumulator.push(
+        np.array([0]),
+        np.array([[0, 1]]),
+        np.array([[1, 0]]),
+        np.array([[0.5, -1.0]]),
+        np.array([[2, 3]]),
+        np.array([False]),
+        np.array([False]),
+    )
     np.testing.assert_array_equal(ready.next_ids, [2, 3])
     np.testing.assert_array_equal(ready.rewards, [0.5, -1.0])
     np.testing.assert_array_equal(ready.steps, [1, 1])

@@ -97,8 +97,10 @@ def _stamp_ns(message: object) -> int:
 def _place_fire_maps(maps: list[tuple[int, np.ndarray]], bag: Path) -> list[np.ndarray]:
     """Fire maps indexed by fire step (see the module docstring)."""
     stamps = [stamp for stamp, _ in maps]
-    if len(maps) > 1 and all(b >= a for a, b in itertools.pairwise(stamps)) and (
-        stamps[-1] > stamps[0]
+    if (
+        len(maps) > 1
+        and all(b >= a for a, b in itertools.pairwise(stamps))
+        and (stamps[-1] > stamps[0])
     ):
         by_step: dict[int, np.ndarray] = {}
         for stamp, grid in maps:
@@ -141,7 +143,8 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
     except WildfireRosError as error:
         raise LearningError(str(error)) from None
     aircraft = sorted(
-        k for t in topics
+        k
+        for t in topics
         if (k := contract.aircraft_index(t)) is not None and t == contract.STATE.resolve(k)
     )
     required = [contract.FIRE_MAP.name] + ([contract.BELIEF.name] if need_belief else [])
@@ -149,16 +152,19 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
     if not aircraft:
         missing.append("/uavK/state")
     if missing or aircraft != list(range(len(aircraft))):
-        expected = ", ".join(["/wildfire/fire_map", "/uav0/state", "/uav1/state", "..."]
-                             + (["/wildfire/belief"] if need_belief else []))
+        expected = ", ".join(
+            ["/wildfire/fire_map", "/uav0/state", "/uav1/state", "..."]
+            + (["/wildfire/belief"] if need_belief else [])
+        )
         raise LearningError(
             f"bag {bag}: missing topic {', '.join(missing) or '/uavK/state (numbering)'} "
             f"(expected {expected} as recorded by `wildfire run --record`)"
         )
     stamped_topics = {contract.STATE_STAMPED.resolve(k): k for k in aircraft}
     use_stamped = all(t in topics for t in stamped_topics)
-    state_topics = stamped_topics if use_stamped else {
-        contract.STATE.resolve(k): k for k in aircraft}
+    state_topics = (
+        stamped_topics if use_stamped else {contract.STATE.resolve(k): k for k in aircraft}
+    )
     cmd_topics = {contract.BANK_CMD.resolve(k): k for k in aircraft}
     use_cmds = all(t in topics for t in cmd_topics)
     wanted = [contract.FIRE_MAP.name, *state_topics] + (list(cmd_topics) if use_cmds else [])
@@ -185,8 +191,10 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
             elif record.topic == contract.FIRE_MAP.name:
                 grid = codecs.fire_grid_from_msg(record.message)
                 if grid.shape != (GRID_SIZE, GRID_SIZE):
-                    raise LearningError(f"bag {bag}: fire map of shape {grid.shape}, "
-                                        f"expected {(GRID_SIZE, GRID_SIZE)}")
+                    raise LearningError(
+                        f"bag {bag}: fire map of shape {grid.shape}, "
+                        f"expected {(GRID_SIZE, GRID_SIZE)}"
+                    )
                 fire.append((_stamp_ns(record.message), grid))
             elif record.topic == contract.BELIEF.name and belief is None:
                 belief = codecs.belief_from_msg(record.message)
@@ -222,8 +230,7 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
     if decisions < 1:
         raise LearningError(f"bag {bag}: fewer than two poses per aircraft, nothing to rebuild")
     state_array = np.stack([np.stack(s[: decisions + 1]) for s in states], axis=1)
-    cmd_array = (np.array([c[:decisions] for c in cmds], dtype=np.float64).T
-                 if use_cmds else None)
+    cmd_array = np.array([c[:decisions] for c in cmds], dtype=np.float64).T if use_cmds else None
     return Recording(
         fire_maps=_place_fire_maps(fire, bag),
         states=state_array,
@@ -288,8 +295,10 @@ def rebuild_transitions(
         step = t // DECISIONS_PER_FIRE_STEP
         burning = recording.fire_maps[step]
         pose = AircraftState(
-            x_m=states[i, :, 0][None], y_m=states[i, :, 1][None],
-            heading_rad=states[i, :, 2][None], bank_steps=bank_steps[i][None],
+            x_m=states[i, :, 0][None],
+            y_m=states[i, :, 1][None],
+            heading_rad=states[i, :, 2][None],
+            bank_steps=bank_steps[i][None],
         )
         team = 0
         if approach == "belief" and t >= 1:
@@ -311,8 +320,9 @@ def rebuild_transitions(
             image = sensor.observe(burning[None], pose.x_m, pose.y_m, pose.heading_rad)[0]
             image = image[:, None].astype(np.float32)
         else:
-            image = ego_images(belief.burning, belief.age_s(), pose.x_m, pose.y_m,
-                               pose.heading_rad)[0]
+            image = ego_images(
+                belief.burning, belief.age_s(), pose.x_m, pose.y_m, pose.heading_rad
+            )[0]
         images.append(codec.encode(image))
         pair_states.append(pairwise.normalise(pairwise.pairwise_states(pose))[0])
 

@@ -70,8 +70,16 @@ CHECKPOINT_FILE = "checkpoint.pt"
 REPLAY_FILE = "replay.npz"
 CURVE_CSV = "learning_curve.csv"
 CURVE_PNG = "learning_curve.png"
-CURVE_FIELDS = ("iteration", "samples", "wall_time_s", "epsilon", "score_mean", "score_sem",
-                "belief_iou_mean", "episodes")
+CURVE_FIELDS = (
+    "iteration",
+    "samples",
+    "wall_time_s",
+    "epsilon",
+    "score_mean",
+    "score_sem",
+    "belief_iou_mean",
+    "episodes",
+)
 
 
 @dataclass
@@ -146,14 +154,29 @@ class TrainConfig:
         """Return self, or raise :class:`LearningError` naming the bad field."""
         if self.approach not in IMAGE_SHAPES:
             raise LearningError(f"approach: expected obs or belief, got {self.approach!r}")
-        positive = ("num_envs", "n_aircraft", "buffer_size", "train_frequency", "batch_size",
-                    "target_network_frequency", "eval_episodes", "torch_threads", "n_step",
-                    "explore_hold")
+        positive = (
+            "num_envs",
+            "n_aircraft",
+            "buffer_size",
+            "train_frequency",
+            "batch_size",
+            "target_network_frequency",
+            "eval_episodes",
+            "torch_threads",
+            "n_step",
+            "explore_hold",
+        )
         for name in positive:
             if getattr(self, name) < 1:
                 raise LearningError(f"{name}: expected >= 1, got {getattr(self, name)}")
-        for name in ("total_samples", "iterations", "learning_starts", "eval_every",
-                     "checkpoint_every", "exploration_samples"):
+        for name in (
+            "total_samples",
+            "iterations",
+            "learning_starts",
+            "eval_every",
+            "checkpoint_every",
+            "exploration_samples",
+        ):
             if getattr(self, name) < 0:
                 raise LearningError(f"{name}: expected >= 0, got {getattr(self, name)}")
         if not 0.0 < self.gamma <= 1.0:
@@ -259,8 +282,9 @@ def target_iterations(config: TrainConfig) -> int:
     return max(0, (config.total_samples - config.learning_starts) // config.train_frequency)
 
 
-def greedy_actions(model: nn.Module, images: np.ndarray, states: np.ndarray,
-                   channels_last: bool = False) -> np.ndarray:
+def greedy_actions(
+    model: nn.Module, images: np.ndarray, states: np.ndarray, channels_last: bool = False
+) -> np.ndarray:
     """argmax_a sum_j Q(s_j, a) for a batch: images (B, C, H, W), states (B, K, 5) -> (B,)."""
     image_tensor = torch.from_numpy(np.ascontiguousarray(images, dtype=np.float32))
     if channels_last:
@@ -288,8 +312,12 @@ class GreedyController:
     def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
         images, states = observations["image"], observations["state"]
         e, n = images.shape[:2]
-        actions = greedy_actions(self.model, images.reshape(e * n, *images.shape[2:]),
-                                 states.reshape(e * n, *states.shape[2:]), self.channels_last)
+        actions = greedy_actions(
+            self.model,
+            images.reshape(e * n, *images.shape[2:]),
+            states.reshape(e * n, *states.shape[2:]),
+            self.channels_last,
+        )
         return actions.reshape(e, n)
 
 
@@ -326,7 +354,7 @@ def td_update(
             target_max = next_q.gather(1, chosen[:, None]).squeeze(1)
         else:
             target_max = next_q.max(dim=1).values
-        bootstrap = config.gamma ** batch.steps * (1.0 - batch.terminated)
+        bootstrap = config.gamma**batch.steps * (1.0 - batch.terminated)
         td_target = config.reward_scale * batch.rewards + bootstrap * target_max
     q = q_network(images, batch.states).sum(dim=1)
     old_val = q.gather(1, batch.actions[:, None]).squeeze(1)
@@ -388,7 +416,10 @@ def load_checkpoint(run_dir: Path) -> dict[str, Any]:
 
 
 PRE_EXTENSION_VALUES: dict[str, Any] = {
-    "n_step": 1, "reward_scale": 1.0, "explore_hold": 1, "double_q": False,
+    "n_step": 1,
+    "reward_scale": 1.0,
+    "explore_hold": 1,
+    "double_q": False,
 }
 """Values of fields added after the first runs, for configs saved before them: a resumed run
 keeps training the way it started (one-step, unscaled, plain epsilon-greedy, single Q)."""
@@ -410,8 +441,10 @@ def load_policy_weights(model: nn.Module, path: Path, approach: str, arch: str) 
         raise LearningError(f"--init-from {error}") from None
     trained = (policy.card.get("approach"), policy.card.get("arch", "paper"))
     if trained != (approach, arch):
-        raise LearningError(f"--init-from {path}: a {trained[0]}/{trained[1]} policy, "
-                            f"this run trains {approach}/{arch}")
+        raise LearningError(
+            f"--init-from {path}: a {trained[0]}/{trained[1]} policy, "
+            f"this run trains {approach}/{arch}"
+        )
     model.load_state_dict(policy.module.state_dict())
 
 
@@ -422,8 +455,9 @@ def config_from_dict(values: dict[str, Any]) -> TrainConfig:
 
 
 # ----------------------------------------------------------------------- learning curve
-def write_curve(run_dir: Path, rows: list[dict[str, float]], baseline: float | None,
-                title: str) -> None:
+def write_curve(
+    run_dir: Path, rows: list[dict[str, float]], baseline: float | None, title: str
+) -> None:
     """Learning curve as CSV and PNG (score vs thousands of training iterations)."""
     with open(run_dir / CURVE_CSV, "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=CURVE_FIELDS)
@@ -461,9 +495,14 @@ def _init_summary(path: Path) -> dict[str, Any]:
     with contextlib.suppress(OSError, ValueError):
         card = json.loads(sidecar_path(path).read_text())
     evaluation = card.get("evaluation", {})
-    return {"path": str(path), "iterations": card.get("iterations"),
-            "samples": card.get("samples"), "wall_time_s": card.get("wall_time_s"),
-            "config": card.get("config"), "score_mean": evaluation.get("score_mean")}
+    return {
+        "path": str(path),
+        "iterations": card.get("iterations"),
+        "samples": card.get("samples"),
+        "wall_time_s": card.get("wall_time_s"),
+        "config": card.get("config"),
+        "score_mean": evaluation.get("score_mean"),
+    }
 
 
 def policy_card(
@@ -497,8 +536,11 @@ def policy_card(
             "receding_horizon_score": options.baseline_score,
         },
         "learning_curve": [
-            {"iteration": r["iteration"], "score_mean": r["score_mean"],
-             "score_sem": r["score_sem"]}
+            {
+                "iteration": r["iteration"],
+                "score_mean": r["score_mean"],
+                "score_sem": r["score_sem"],
+            }
             for r in state.curve
         ],
     }
@@ -556,8 +598,11 @@ def train(
     if options.resume:
         payload = load_checkpoint(run_dir)
         saved = config_from_dict(payload["config"])
-        if (saved.approach, saved.arch, saved.n_aircraft) != (approach, config.arch,
-                                                               config.n_aircraft):
+        if (saved.approach, saved.arch, saved.n_aircraft) != (
+            approach,
+            config.arch,
+            config.n_aircraft,
+        ):
             raise LearningError(
                 f"checkpoint {run_dir / CHECKPOINT_FILE}: incompatible (trained {saved.approach}/"
                 f"{saved.arch} with {saved.n_aircraft} aircraft, asked {approach}/{config.arch} "
@@ -594,8 +639,14 @@ def train(
             capacity = max(capacity, bag_transitions)
         replay = ReplayBuffer(capacity, image_shape, state_shape, codec)
         for sequence in bag_sequences:
-            replay.add_sequence(sequence.images, sequence.states, sequence.actions,
-                                sequence.rewards, sequence.terminated, encoded=True)
+            replay.add_sequence(
+                sequence.images,
+                sequence.states,
+                sequence.actions,
+                sequence.rewards,
+                sequence.terminated,
+                encoded=True,
+            )
     if replay.image_shape != image_shape or replay.state_shape != state_shape:
         raise LearningError(f"replay {run_dir / REPLAY_FILE}: shapes do not match the network")
 
@@ -608,31 +659,46 @@ def train(
 
     def status(phase: str, epsilon: float) -> None:
         if report is not None:
-            report(Status(state.samples, state.iterations, total_iterations, epsilon,
-                          state.last_loss, last_score, phase))
+            report(
+                Status(
+                    state.samples,
+                    state.iterations,
+                    total_iterations,
+                    epsilon,
+                    state.last_loss,
+                    last_score,
+                    phase,
+                )
+            )
 
     def checkpoint() -> None:
         state.wall_time_s = wall_before + time.perf_counter() - session_start
-        save_checkpoint(run_dir, config, state, q_network, target_network, optimizer, replay,
-                        rng)
+        save_checkpoint(run_dir, config, state, q_network, target_network, optimizer, replay, rng)
 
     def run_evaluation() -> None:
         nonlocal last_score
-        status("evaluating", linear_schedule(config.start_e, config.end_e,
-                                             config.exploration_samples, state.samples))
+        status(
+            "evaluating",
+            linear_schedule(
+                config.start_e, config.end_e, config.exploration_samples, state.samples
+            ),
+        )
         summary = evaluate_greedy(q_network, config).to_json()
         last_score = float(summary["score_mean"])
-        state.curve.append({
-            "iteration": state.iterations,
-            "samples": state.samples,
-            "wall_time_s": round(wall_before + time.perf_counter() - session_start, 1),
-            "epsilon": linear_schedule(config.start_e, config.end_e, config.exploration_samples,
-                                       state.samples),
-            "score_mean": last_score,
-            "score_sem": float(summary["score_sem"]),
-            "belief_iou_mean": float(summary["belief_iou_mean"]),
-            "episodes": int(summary["episodes"]),
-        })
+        state.curve.append(
+            {
+                "iteration": state.iterations,
+                "samples": state.samples,
+                "wall_time_s": round(wall_before + time.perf_counter() - session_start, 1),
+                "epsilon": linear_schedule(
+                    config.start_e, config.end_e, config.exploration_samples, state.samples
+                ),
+                "score_mean": last_score,
+                "score_sem": float(summary["score_sem"]),
+                "belief_iou_mean": float(summary["belief_iou_mean"]),
+                "episodes": int(summary["episodes"]),
+            }
+        )
         write_curve(run_dir, state.curve, options.baseline_score, f"{approach} DQN")
         # The latest evaluated network is always on disk (`wildfire eval` it mid-run), and
         # the best-scoring one is kept beside it.
@@ -684,8 +750,9 @@ def train(
                 return state.samples >= config.total_samples
 
             while not finished():
-                epsilon = linear_schedule(config.start_e, config.end_e, config.exploration_samples,
-                                          state.samples)
+                epsilon = linear_schedule(
+                    config.start_e, config.end_e, config.exploration_samples, state.samples
+                )
                 prefilling = len(replay) < config.learning_starts
                 # Every aircraft of every environment: one batched forward pass.
                 greedy = np.zeros((config.num_envs, n), dtype=np.int64)
@@ -699,11 +766,23 @@ def train(
                 observations = result.observations
                 # Every aircraft's transition goes to the one replay (the network is shared).
                 next_ids = replay.add_frames(*_flat(observations, active)).reshape(-1, n)
-                ready = pending.push(active, frame_ids[active], actions[active],
-                                     result.rewards[active], next_ids,
-                                     result.terminated[active], env.done[active])
-                replay.add_transitions(ready.obs_ids, ready.actions, ready.rewards,
-                                       ready.terminated, ready.next_ids, ready.steps)
+                ready = pending.push(
+                    active,
+                    frame_ids[active],
+                    actions[active],
+                    result.rewards[active],
+                    next_ids,
+                    result.terminated[active],
+                    env.done[active],
+                )
+                replay.add_transitions(
+                    ready.obs_ids,
+                    ready.actions,
+                    ready.rewards,
+                    ready.terminated,
+                    ready.next_ids,
+                    ready.steps,
+                )
                 frame_ids[active] = next_ids
                 new_samples = active.size * n
                 state.samples += new_samples

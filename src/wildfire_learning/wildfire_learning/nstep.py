@@ -71,11 +71,16 @@ class NStepAccumulator:
             returns = np.einsum("enk,n->ek", self.rewards[full], self.discounts)
             count = full.size * self.obs_ids.shape[2]
             next_full = next_ids[np.searchsorted(envs, full)]
-            parts.append(Transitions(
-                self.obs_ids[full, 0].reshape(-1), self.actions[full, 0].reshape(-1),
-                returns.reshape(-1), np.zeros(count, dtype=np.float32),
-                next_full.reshape(-1), np.full(count, self.n_step, dtype=np.uint8),
-            ))
+            parts.append(
+                Transitions(
+                    self.obs_ids[full, 0].reshape(-1),
+                    self.actions[full, 0].reshape(-1),
+                    returns.reshape(-1),
+                    np.zeros(count, dtype=np.float32),
+                    next_full.reshape(-1),
+                    np.full(count, self.n_step, dtype=np.uint8),
+                )
+            )
             for array in (self.obs_ids, self.actions, self.rewards):
                 array[full, :-1] = array[full, 1:]
             self.length[full] -= 1
@@ -86,21 +91,31 @@ class NStepAccumulator:
             rewards = self.rewards[env, :pending]
             n_aircraft = rewards.shape[1]
             steps = pending - np.arange(pending)
-            returns = np.stack([self.discounts[: pending - i] @ rewards[i:]
-                                for i in range(pending)])
-            parts.append(Transitions(
-                self.obs_ids[env, :pending].reshape(-1), self.actions[env, :pending].reshape(-1),
-                returns.reshape(-1),
-                np.full(pending * n_aircraft, float(terminated[row]), dtype=np.float32),
-                np.tile(next_ids[row], pending),
-                np.repeat(steps, n_aircraft).astype(np.uint8),
-            ))
+            returns = np.stack(
+                [self.discounts[: pending - i] @ rewards[i:] for i in range(pending)]
+            )
+            parts.append(
+                Transitions(
+                    self.obs_ids[env, :pending].reshape(-1),
+                    self.actions[env, :pending].reshape(-1),
+                    returns.reshape(-1),
+                    np.full(pending * n_aircraft, float(terminated[row]), dtype=np.float32),
+                    np.tile(next_ids[row], pending),
+                    np.repeat(steps, n_aircraft).astype(np.uint8),
+                )
+            )
             self.length[env] = 0
 
         if not parts:
             empty = np.zeros(0, dtype=np.int64)
-            return Transitions(empty, empty, np.zeros(0), np.zeros(0, dtype=np.float32), empty,
-                               np.zeros(0, dtype=np.uint8))
+            return Transitions(
+                empty,
+                empty,
+                np.zeros(0),
+                np.zeros(0, dtype=np.float32),
+                empty,
+                np.zeros(0, dtype=np.uint8),
+            )
         return Transitions(*(np.concatenate(column) for column in zip(*parts, strict=True)))
 
     def clear(self, envs: np.ndarray) -> None:

@@ -116,8 +116,16 @@ class ReplayBuffer:
 
     @property
     def nbytes(self) -> int:
-        arrays = (self.images, self.states, self.obs_id, self.next_id, self.actions,
-                  self.rewards, self.terminated, self.steps)
+        arrays = (
+            self.images,
+            self.states,
+            self.obs_id,
+            self.next_id,
+            self.actions,
+            self.rewards,
+            self.terminated,
+            self.steps,
+        )
         return sum(a.nbytes for a in arrays)
 
     def add_frames(

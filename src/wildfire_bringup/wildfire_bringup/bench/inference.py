@@ -29,8 +29,12 @@ from wildfire_learning.export import export_policy
 from wildfire_learning.replay import ImageCodec, ReplayBuffer
 
 PAPER_REPLAY = 70_000
-VARIANTS = (("obs", "paper", "obs"), ("belief", "paper", "belief"),
-            ("belief", "fast", "belief_fast"), ("belief", "lite", "belief_lite"))
+VARIANTS = (
+    ("obs", "paper", "obs"),
+    ("belief", "paper", "belief"),
+    ("belief", "fast", "belief_fast"),
+    ("belief", "lite", "belief_lite"),
+)
 """(approach, architecture, figure key) of every network timed."""
 
 
@@ -73,9 +77,16 @@ def inference_ms(path: Path, approach: str, repeats: int) -> float:
 def train_speed(approach: str, arch: str, iterations: int, directory: Path) -> dict[str, float]:
     """Samples/s and iterations/s of a short real training run."""
     config = TrainConfig(
-        approach=approach, arch=arch, iterations=iterations, num_envs=16,
-        buffer_size=5_000, learning_starts=2_000, eval_every=0, checkpoint_every=0,
-        eval_episodes=1, episode_seconds=2.0,
+        approach=approach,
+        arch=arch,
+        iterations=iterations,
+        num_envs=16,
+        buffer_size=5_000,
+        learning_starts=2_000,
+        eval_every=0,
+        checkpoint_every=0,
+        eval_episodes=1,
+        episode_seconds=2.0,
     )
     run_dir = directory / f"train_{approach}_{arch}"
     result = train(config, RunOptions(run_dir=run_dir, out=run_dir / "policy.pt"))

@@ -33,10 +33,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--episodes", type=positive_int, default=20, metavar="K")
     parser.add_argument("--png", metavar="FILE", help="draw the first episode")
-    parser.add_argument("--card", action="store_true",
-                        help="record the result in the policy's JSON model card (key "
-                        "test_evaluations.<shape>_<N>aircraft, with _wind<WX,WY> or "
-                        "_maxwind<W> appended for those); Q-network policies only")
+    parser.add_argument(
+        "--card",
+        action="store_true",
+        help="record the result in the policy's JSON model card (key "
+        "test_evaluations.<shape>_<N>aircraft, with _wind<WX,WY> or "
+        "_maxwind<W> appended for those); Q-network policies only",
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
 

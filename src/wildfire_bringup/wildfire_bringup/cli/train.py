@@ -104,29 +104,57 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         elif isinstance(default, float):
             kind = _probability if spec.name == "gamma" else positive_float
             parser.add_argument(option, type=kind, **common)
-        elif spec.name in ("num_envs", "n_aircraft", "buffer_size", "train_frequency",
-                           "batch_size", "target_network_frequency", "eval_episodes",
-                           "torch_threads", "n_step", "explore_hold"):
+        elif spec.name in (
+            "num_envs",
+            "n_aircraft",
+            "buffer_size",
+            "train_frequency",
+            "batch_size",
+            "target_network_frequency",
+            "eval_episodes",
+            "torch_threads",
+            "n_step",
+            "explore_hold",
+        ):
             parser.add_argument(option, type=positive_int, **common)
         else:
             parser.add_argument(option, type=non_negative_int, **common)
     parser.add_argument("--run-dir", type=Path, help="run directory (checkpoints, curve)")
     parser.add_argument("--out", type=Path, metavar="FILE.pt", help="exported policy file")
     parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
-    parser.add_argument("--baseline", metavar="SCORE|FILE.json",
-                        help="receding-horizon score on the evaluation seeds (a number, or a "
-                        "`wildfire eval --json` output), drawn dashed on the learning curve")
-    parser.add_argument("--from-bag", nargs="+", type=Path, metavar="DIR",
-                        help="rebuild transitions from recorded bags (`wildfire run --record`)")
-    parser.add_argument("--init-from", type=Path, metavar="POLICY.pt",
-                        help="start from the weights of an exported policy of the same "
-                        "approach and architecture (fine-tuning; recorded in the card)")
-    parser.add_argument("--online", action="store_true",
-                        help="with --from-bag: prefill the replay with the bag transitions, "
-                        "then train in simulation (default: train on the bags only)")
-    parser.add_argument("--log-every", type=positive_float, default=60.0, metavar="SECONDS",
-                        help="when stderr is not a terminal (nohup), print a status line "
-                        "this often (default: 60)")
+    parser.add_argument(
+        "--baseline",
+        metavar="SCORE|FILE.json",
+        help="receding-horizon score on the evaluation seeds (a number, or a "
+        "`wildfire eval --json` output), drawn dashed on the learning curve",
+    )
+    parser.add_argument(
+        "--from-bag",
+        nargs="+",
+        type=Path,
+        metavar="DIR",
+        help="rebuild transitions from recorded bags (`wildfire run --record`)",
+    )
+    parser.add_argument(
+        "--init-from",
+        type=Path,
+        metavar="POLICY.pt",
+        help="start from the weights of an exported policy of the same "
+        "approach and architecture (fine-tuning; recorded in the card)",
+    )
+    parser.add_argument(
+        "--online",
+        action="store_true",
+        help="with --from-bag: prefill the replay with the bag transitions, "
+        "then train in simulation (default: train on the bags only)",
+    )
+    parser.add_argument(
+        "--log-every",
+        type=positive_float,
+        default=60.0,
+        metavar="SECONDS",
+        help="when stderr is not a terminal (nohup), print a status line this often (default: 60)",
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
 
@@ -217,10 +245,12 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(summary)
     else:
-        print(f"trained {config.approach}/{config.arch}: {result.state.iterations} iterations, "
-              f"{result.state.samples} samples in {result.state.wall_time_s:.0f} s; score "
-              f"{evaluation['score_mean']:.1f} +- {evaluation['score_sem']:.1f} on "
-              f"{evaluation['episodes']} held-out episodes")
+        print(
+            f"trained {config.approach}/{config.arch}: {result.state.iterations} iterations, "
+            f"{result.state.samples} samples in {result.state.wall_time_s:.0f} s; score "
+            f"{evaluation['score_mean']:.1f} +- {evaluation['score_sem']:.1f} on "
+            f"{evaluation['episodes']} held-out episodes"
+        )
         print(f"wrote {result.out} (+ {result.out.with_suffix('.json').name}), curve in {run_dir}")
     return 0
 
@@ -245,10 +275,13 @@ class _progress:
             return
         self.last_log = now
         score = "-" if status.last_score is None else f"{status.last_score:.1f}"
-        print(f"{time.strftime('%H:%M:%S')} {status.phase}: iteration {status.iterations}/"
-              f"{status.target_iterations} samples {status.samples} epsilon "
-              f"{status.epsilon:.3f} loss {status.loss:.4g} last score {score}",
-              file=sys.stderr, flush=True)
+        print(
+            f"{time.strftime('%H:%M:%S')} {status.phase}: iteration {status.iterations}/"
+            f"{status.target_iterations} samples {status.samples} epsilon "
+            f"{status.epsilon:.3f} loss {status.loss:.4g} last score {score}",
+            file=sys.stderr,
+            flush=True,
+        )
 
     def __enter__(self) -> Any:
         if not self.enabled:
@@ -265,14 +298,17 @@ class _progress:
             TextColumn("[bold]{task.fields[phase]}"),
             BarColumn(),
             TextColumn("{task.completed}/{task.total} it"),
-            TextColumn("samples {task.fields[samples]} eps {task.fields[eps]} "
-                       "loss {task.fields[loss]} score {task.fields[score]}"),
+            TextColumn(
+                "samples {task.fields[samples]} eps {task.fields[eps]} "
+                "loss {task.fields[loss]} score {task.fields[score]}"
+            ),
             TimeElapsedColumn(),
             TimeRemainingColumn(),
         )
         self.progress.__enter__()
-        self.task = self.progress.add_task("train", total=1, phase="", samples=0, eps="",
-                                           loss="", score="-")
+        self.task = self.progress.add_task(
+            "train", total=1, phase="", samples=0, eps="", loss="", score="-"
+        )
         return self.update
 
     def update(self, status: Status) -> None:
