@@ -1,0 +1,22 @@
+"""The code stays lint-clean and formatted (ruff, configured in pyproject.toml)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+RUFF = Path(sys.executable).with_name("ruff")
+
+
+@pytest.mark.parametrize("command", [["check"], ["format", "--check"]], ids=["check", "format"])
+def test_ruff(command: list[str]) -> None:
+    if not RUFF.exists():
+        pytest.skip("ruff is not installed in this environment (scripts/setup.sh installs it)")
+    done = subprocess.run(
+        [str(RUFF), *command, "src", "tests"], cwd=ROOT, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
