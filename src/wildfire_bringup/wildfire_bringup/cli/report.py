@@ -1,0 +1,182 @@
+"""``wildfire report``: the paper's results table, reproduced on this project's controllers."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from wildfire_bringup.cli.common import (
+    UserError,
+    non_negative_int,
+    positive_float,
+    positive_int,
+    print_json,
+    wind_bound,
+)
+from wildfire_bringup.cli.progress import progress_bar
+from wildfire_learning.controllers import BUILTIN_POLICIES, make_controller, resolve_policy_path
+from wildfire_learning.env import EnvConfig
+from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
+from wildfire_learning.report import (
+    PAPER_SCENARIOS,
+    Scenario,
+    controller_label,
+    evaluation_path,
+    fingerprint,
+    load_cached,
+    plot_scores,
+    results_markdown,
+    store,
+    table_cells,
+)
+
+DEFAULT_CONTROLLERS = ("obs", "belief", "rh", "random")
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "report",
+        help="evaluate controllers on the paper's scenarios; write the results table and chart",
+        description="Evaluate every controller on every scenario (the same seeds for all), then "
+        "write OUT/results.md (our table and the paper's ratios beside ours), "
+        "OUT/results.json and OUT/scores.png. Each evaluation is kept in OUT/evaluations and "
+        "reused while its seeds, wind, flight limit and policy file are unchanged.",
+    )
+    parser.add_argument(
+        "--controllers",
+        nargs="+",
+        default=list(DEFAULT_CONTROLLERS),
+        metavar="POLICY",
+        help="rh, random, obs, belief (shipped models) or TorchScript .pt files "
+        f"(default: {' '.join(DEFAULT_CONTROLLERS)})",
+    )
+    parser.add_argument(
+        "--scenarios",
+        nargs="+",
+        default=list(PAPER_SCENARIOS),
+        metavar="SHAPE:N",
+        help=f"fire shape and aircraft count (default, the paper's: {' '.join(PAPER_SCENARIOS)})",
+    )
+    parser.add_argument("--episodes", type=positive_int, default=20, metavar="K")
+    parser.add_argument(
+        "--seed",
+        type=non_negative_int,
+        default=TEST_SEED_BASE,
+        metavar="S",
+        help=f"first episode seed (default: {TEST_SEED_BASE}, the test range)",
+    )
+    parser.add_argument(
+        "--max-wind",
+        type=wind_bound,
+        default=None,
+        metavar="W",
+        help="bound of each random wind component (default 0.8, the training range)",
+    )
+    parser.add_argument(
+        "--duration",
+        type=positive_float,
+        default=400.0,
+        metavar="SEC",
+        help="longest flight in seconds (the fire reaching the border ends it too)",
+    )
+    parser.add_argument("--out", type=Path, default=Path("out/report"), metavar="DIR")
+    parser.add_argument(
+        "--fresh", action="store_true", help="evaluate again even where a stored result matches"
+    )
+    parser.add_argument("--json", action="store_true", help="print a JSON summary")
+    parser.set_defaults(handler=run)
+
+
+def check_controllers(names: list[str]) -> list[str]:
+    """Distinct controller names, each known and loadable, with distinct column titles."""
+    controllers = list(dict.fromkeys(names))
+    for name in controllers:
+        make_controller(name)  # a bad name or file fails now, not hours into the report
+    titles = [controller_label(name) for name in controllers]
+    for title in set(titles):
+        if titles.count(title) > 1:
+            raise UserError(
+                f"--controllers: two policies would both be titled {title!r}; rename one file"
+            )
+    return controllers
+
+
+def run(args: argparse.Namespace) -> int:
+    scenarios = list(dict.fromkeys(Scenario.parse(text) for text in args.scenarios))
+    controllers = check_controllers(args.controllers)
+    out_dir: Path = args.out
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UserError(f"--out {out_dir}: exists and is not a directory")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if not os.access(out_dir, os.W_OK):
+        raise UserError(f"--out {out_dir}: not writable")
+
+    base = EnvConfig(max_duration_s=args.duration)
+    if args.max_wind is not None:
+        base = replace(base, max_wind=args.max_wind)
+    base.validate()
+    seeds = list(range(args.seed, args.seed + args.episodes))
+    results: dict[str, dict[str, dict[str, Any]]] = {}
+    evaluated: list[str] = []
+    for scenario in scenarios:
+        config = replace(base, n_aircraft=scenario.aircraft, shapes=(scenario.shape,))
+        for controller in controllers:
+            builtin = controller in BUILTIN_POLICIES
+            policy_file = None if builtin else resolve_policy_path(controller)
+            identity = fingerprint(controller, policy_file, seeds, base.max_wind, args.duration)
+            path = evaluation_path(out_dir, controller, scenario)
+            stored = None if args.fresh else load_cached(path, identity)
+            label = f"{controller_label(controller)} on {scenario.title}"
+            if stored is None:
+                start = time.perf_counter()
+                with progress_bar(label, config.max_decisions, enabled=not args.json) as bar:
+                    summary = evaluate(
+                        make_controller(controller),
+                        config,
+                        seeds,
+                        policy_name=controller,
+                        progress=lambda done, total, bar=bar: bar(done),
+                    )
+                stored = store(path, identity, summary.to_json())
+                evaluated.append(label)
+                note = f"evaluated in {time.perf_counter() - start:.0f} s"
+            else:
+                note = f"stored in {path}"
+            if not args.json:
+                print(f"{label}: {stored['score_mean']:.1f} ± {stored['score_sem']:.1f} ({note})")
+            results.setdefault(scenario.key, {})[controller] = stored
+
+    wind = f"[-{base.max_wind:g}, {base.max_wind:g}]^2"
+    protocol = (
+        f"Seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} episodes, the same for every controller), "
+        f"random wind in {wind}, flights of at most {args.duration:g} s ending when the fire "
+        "comes within 6 cells of the border (SPEC 2.7)."
+    )
+    markdown = results_markdown(results, scenarios, controllers, protocol)
+    (out_dir / "results.md").write_text(markdown)
+    plot_scores(results, scenarios, controllers, out_dir / "scores.png")
+    cells = table_cells(results)
+    summary_json = {
+        "protocol": protocol,
+        "seeds": seeds,
+        "max_wind": base.max_wind,
+        "duration_s": args.duration,
+        "scenarios": [s.key for s in scenarios],
+        "controllers": controllers,
+        "cells": {s: {c: vars(cell) for c, cell in row.items()} for s, row in cells.items()},
+        "evaluated": evaluated,
+        "reused": len(scenarios) * len(controllers) - len(evaluated),
+        "files": [str(out_dir / name) for name in ("results.md", "results.json", "scores.png")],
+    }
+    (out_dir / "results.json").write_text(json.dumps(summary_json, indent=1) + "\n")
+    if args.json:
+        print_json(summary_json)
+    else:
+        print(markdown)
+        print("wrote " + ", ".join(summary_json["files"]))
+    return 0

@@ -1,0 +1,269 @@
+"""Results report: the paper's results table (SPEC 2.7), reproduced on this project's controllers.
+
+Every (controller, scenario) pair is one :func:`~wildfire_learning.evaluate.evaluate` run on
+the same seeds, so a row compares controllers episode by episode. Each result is kept as JSON
+in the report's ``evaluations/`` folder together with what produced it (the seeds, wind bound,
+flight limit and, for a Q-network, the SHA-256 of its file): a later report reuses it while
+those are unchanged, so adding a scenario or a controller flies only what is new. Results of
+``rh`` and ``random`` are keyed by their settings only; pass ``fresh`` after changing their
+code.
+
+The report itself is a Markdown table (mean +- standard error, ratio to the receding horizon,
+fraction of the score ceiling), the paper's ratios beside ours, and a bar chart.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from wildfire_learning.errors import LearningError
+from wildfire_sim.shapes import Shape
+
+CONTROLLER_LABELS = {
+    "obs": "observation DQN",
+    "belief": "belief DQN",
+    "rh": "receding horizon",
+    "random": "random",
+}
+"""Column titles of the built-in controllers (a .pt file is titled by its name)."""
+BASELINE = "rh"
+"""Ratios are to this controller's score on the same seeds."""
+PAPER_RESULTS: dict[str, dict[str, tuple[float, float]]] = {
+    "circular_2aircraft": {
+        "obs": (3140.5, 130.1),
+        "belief": (3154.3, 139.9),
+        "rh": (2725.6, 115.2),
+    },
+    "circular_3aircraft": {"obs": (3390.3, 146.2), "belief": (3337.2, 161.8)},
+    "circular_4aircraft": {"obs": (3546.9, 152.1), "belief": (3463.8, 164.8)},
+    "t_2aircraft": {"obs": (2601.3, 73.2), "belief": (2580.7, 66.2), "rh": (2067.7, 78.7)},
+    "arc_2aircraft": {"obs": (1789.4, 102.2), "belief": (1873.9, 112.3), "rh": (1646.4, 103.0)},
+}
+"""Julian & Kochenderfer's results (SPEC 2.7): mean and standard error per scenario."""
+PAPER_SCENARIOS = ("circular:2", "circular:3", "circular:4", "t:2", "arc:2")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A fire shape flown by a team of ``aircraft``."""
+
+    shape: str
+    aircraft: int
+
+    @classmethod
+    def parse(cls, text: str) -> Scenario:
+        """``SHAPE:N``, e.g. ``circular:2``."""
+        shape, sep, count = text.partition(":")
+        if not sep or not count.isdigit() or int(count) < 1:
+            raise LearningError(
+                f"scenario {text!r}: expected SHAPE:N with N >= 1 aircraft, e.g. circular:2"
+            )
+        return cls(Shape.parse(shape).value, int(count))
+
+    @property
+    def key(self) -> str:
+        """``circular_2aircraft``: the key model cards and the paper table use."""
+        return f"{self.shape}_{self.aircraft}aircraft"
+
+    @property
+    def title(self) -> str:
+        return f"{'T' if self.shape == 't' else self.shape}, {self.aircraft} aircraft"
+
+
+def controller_label(controller: str) -> str:
+    """Column title of a controller name or policy file."""
+    return CONTROLLER_LABELS.get(controller, Path(controller).stem)
+
+
+def fingerprint(
+    controller: str, policy_file: Path | None, seeds: list[int], max_wind: float, duration_s: float
+) -> dict[str, Any]:
+    """What an evaluation depends on, beyond the code: equal fingerprints, equal results."""
+    identity: dict[str, Any] = {
+        "controller": controller,
+        "seeds": seeds,
+        "max_wind": max_wind,
+        "duration_s": duration_s,
+    }
+    if policy_file is not None:
+        identity["policy_sha256"] = hashlib.sha256(policy_file.read_bytes()).hexdigest()
+    return identity
+
+
+def evaluation_path(out_dir: Path, controller: str, scenario: Scenario) -> Path:
+    return out_dir / "evaluations" / f"{controller_label(controller)}_{scenario.key}.json"
+
+
+def load_cached(path: Path, identity: dict[str, Any]) -> dict[str, Any] | None:
+    """The stored result at ``path`` if it was produced with ``identity``, else None."""
+    try:
+        stored = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(stored, dict) or stored.get("fingerprint") != identity:
+        return None
+    return stored
+
+
+def store(path: Path, identity: dict[str, Any], result: dict[str, Any]) -> dict[str, Any]:
+    stored = result | {"fingerprint": identity}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(stored, indent=1) + "\n")
+    return stored
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One controller on one scenario, with its comparison to the baseline."""
+
+    mean: float
+    sem: float
+    ceiling_fraction: float
+    ratio: float | None
+    """Mean over the baseline's mean on the same seeds (None without a baseline)."""
+    ratio_sem: float | None
+    """Standard error of the ratio: that of the per-seed difference to the baseline, over the
+    baseline's mean (the seeds are shared, so this is much smaller than the scores' own)."""
+
+
+def table_cells(
+    results: dict[str, dict[str, dict[str, Any]]],
+) -> dict[str, dict[str, Cell]]:
+    """``results[scenario_key][controller]`` (evaluation JSON) -> cells with ratios."""
+    cells: dict[str, dict[str, Cell]] = {}
+    for scenario, by_controller in results.items():
+        baseline = by_controller.get(BASELINE)
+        base_scores = np.array(baseline["scores"]) if baseline else None
+        row: dict[str, Cell] = {}
+        for controller, result in by_controller.items():
+            scores = np.array(result["scores"])
+            ratio = ratio_sem = None
+            if base_scores is not None and controller != BASELINE:
+                ratio = float(scores.mean() / base_scores.mean())
+                difference = scores - base_scores
+                spread = difference.std(ddof=1) if difference.size > 1 else 0.0
+                ratio_sem = float(spread / np.sqrt(difference.size) / base_scores.mean())
+            row[controller] = Cell(
+                float(result["score_mean"]),
+                float(result["score_sem"]),
+                float(result["ceiling_fraction"]),
+                ratio,
+                ratio_sem,
+            )
+        cells[scenario] = row
+    return cells
+
+
+def results_markdown(
+    results: dict[str, dict[str, dict[str, Any]]],
+    scenarios: list[Scenario],
+    controllers: list[str],
+    protocol: str,
+) -> str:
+    """The report: our table, then the paper's ratios beside ours."""
+    cells = table_cells(results)
+    titles = [controller_label(c) for c in controllers]
+    lines = [
+        "# Results",
+        "",
+        protocol,
+        "",
+        "Mean +- standard error of the score; in brackets the ratio to the receding horizon on",
+        "the same seeds and the fraction of the score ceiling (the most any controller could",
+        "score on those fires).",
+        "",
+        "| scenario | ceiling | " + " | ".join(titles) + " |",
+        "|---" * (len(titles) + 2) + "|",
+    ]
+    for scenario in scenarios:
+        by_controller = results[scenario.key]
+        ceiling = next(iter(by_controller.values()))["score_ceiling_mean"]
+        row = [scenario.title, f"{ceiling:.1f}"]
+        for controller in controllers:
+            cell = cells[scenario.key][controller]
+            ratio = f"{cell.ratio:.2f}x, " if cell.ratio is not None else ""
+            row.append(f"{cell.mean:.1f} +- {cell.sem:.1f} ({ratio}{cell.ceiling_fraction:.0%})")
+        lines.append("| " + " | ".join(row) + " |")
+    lines += [
+        "",
+        "Ratio to the receding horizon, the paper's (its episode length is not stated, so only",
+        "ratios compare) and ours (+- the standard error of the paired per-seed difference, over",
+        "the receding horizon's mean):",
+        "",
+        "| scenario | paper observation | paper belief | ours observation | ours belief |",
+        "|---|---|---|---|---|",
+    ]
+    for scenario in scenarios:
+        paper = PAPER_RESULTS.get(scenario.key, {})
+        ours = cells[scenario.key]
+
+        def paper_ratio(approach: str, paper: dict[str, tuple[float, float]] = paper) -> str:
+            if approach in paper and BASELINE in paper:
+                return f"{paper[approach][0] / paper[BASELINE][0]:.2f}x"
+            return "-"
+
+        def our_ratio(approach: str, ours: dict[str, Cell] = ours) -> str:
+            cell = ours.get(approach)
+            if cell is None or cell.ratio is None:
+                return "-"
+            return f"{cell.ratio:.2f}x +- {cell.ratio_sem:.2f}"
+
+        lines.append(
+            f"| {scenario.title} | {paper_ratio('obs')} | {paper_ratio('belief')} | "
+            f"{our_ratio('obs')} | {our_ratio('belief')} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def plot_scores(
+    results: dict[str, dict[str, dict[str, Any]]],
+    scenarios: list[Scenario],
+    controllers: list[str],
+    path: Path,
+) -> None:
+    """Grouped bars (mean +- s.e.) per scenario, with each scenario's ceiling marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    width = 0.8 / len(controllers)
+    x = np.arange(len(scenarios))
+    fig, ax = plt.subplots(figsize=(1.6 + 1.5 * len(scenarios), 4))
+    for i, controller in enumerate(controllers):
+        means = [results[s.key][controller]["score_mean"] for s in scenarios]
+        sems = [results[s.key][controller]["score_sem"] for s in scenarios]
+        offset = (i - (len(controllers) - 1) / 2) * width
+        ax.bar(x + offset, means, width, yerr=sems, capsize=2, label=controller_label(controller))
+    ceilings = [next(iter(results[s.key].values()))["score_ceiling_mean"] for s in scenarios]
+    ax.hlines(ceilings, x - 0.45, x + 0.45, colors="black", linestyles="--", label="ceiling")
+    ax.set_xticks(x, [s.title for s in scenarios], fontsize=8)
+    ax.set_ylabel("Average Reward Accumulated")
+    # Above the axes: inside, it would cover the tallest bars or a ceiling.
+    ax.legend(fontsize=7, ncol=len(controllers) + 1, loc="lower center", bbox_to_anchor=(0.5, 1.0))
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+__all__ = [
+    "BASELINE",
+    "PAPER_RESULTS",
+    "PAPER_SCENARIOS",
+    "Cell",
+    "Scenario",
+    "controller_label",
+    "evaluation_path",
+    "fingerprint",
+    "load_cached",
+    "plot_scores",
+    "results_markdown",
+    "store",
+    "table_cells",
+]

@@ -1,0 +1,107 @@
+"""``wildfire report``: the results table equals the evaluations it is made of, stored
+evaluations are reused, and bad input is one line."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from wildfire_learning.controllers import make_controller
+from wildfire_learning.env import EnvConfig
+from wildfire_learning.evaluate import evaluate
+from wildfire_learning.report import Scenario, table_cells
+
+WILDFIRE = [str(Path(sys.executable).with_name("wildfire"))]
+QUICK = ("--episodes", "2", "--duration", "5")
+
+
+def report(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([*WILDFIRE, "report", *args], capture_output=True, text=True, timeout=300)
+
+
+def quick_report(out: Path, controllers: str, scenarios: str, seed: int = 40) -> dict[str, Any]:
+    """JSON summary of a 2-episode, 5 s report (space-separated controllers and scenarios)."""
+    done = report(
+        *("--controllers", *controllers.split(), "--scenarios", *scenarios.split()),
+        *(*QUICK, "--seed", str(seed), "--out", str(out), "--json"),
+    )
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout)
+
+
+def test_report_tables_the_evaluations_and_reuses_them(tmp_path: Path) -> None:
+    out = tmp_path / "report"
+    summary = quick_report(out, "random rh", "circular:2")
+    assert len(summary["evaluated"]) == 2 and summary["reused"] == 0
+
+    config = EnvConfig(n_aircraft=2, max_duration_s=5.0)
+    reference = {
+        name: evaluate(make_controller(name), config, [40, 41]).scores for name in ("random", "rh")
+    }
+    cells = summary["cells"]["circular_2aircraft"]
+    assert cells["rh"]["mean"] == reference["rh"].mean()
+    assert cells["random"]["mean"] == reference["random"].mean()
+    assert cells["random"]["ratio"] == pytest.approx(
+        reference["random"].mean() / reference["rh"].mean()
+    )
+    assert cells["rh"]["ratio"] is None
+    markdown = (out / "results.md").read_text()
+    assert "| circular, 2 aircraft |" in markdown and "receding horizon" in markdown
+    assert (out / "scores.png").stat().st_size > 10_000
+
+    # A second report with one more scenario flies only the new pairs.
+    extended = quick_report(out, "random rh", "circular:2 arc:2")
+    assert extended["reused"] == 2
+    assert sorted(extended["evaluated"]) == [
+        "random on arc, 2 aircraft",
+        "receding horizon on arc, 2 aircraft",
+    ]
+    assert extended["cells"]["circular_2aircraft"] == cells
+    # Other seeds are another experiment: nothing stored matches.
+    assert quick_report(out, "random", "circular:2", seed=50)["reused"] == 0
+
+
+def test_ratio_error_is_that_of_the_paired_difference() -> None:
+    def result(scores: list[float]) -> dict[str, object]:
+        return {
+            "scores": scores,
+            "score_mean": float(np.mean(scores)),
+            "score_sem": float(np.std(scores, ddof=1) / np.sqrt(len(scores))),
+            "ceiling_fraction": 0.5,
+        }
+
+    rh, dqn = result([100.0, 200.0, 300.0]), result([110.0, 230.0, 300.0])
+    cells = table_cells({"circular_2aircraft": {"rh": rh, "obs": dqn}})["circular_2aircraft"]
+    difference = np.array([10.0, 30.0, 0.0])
+    assert cells["obs"].ratio == pytest.approx(640.0 / 600.0)
+    # Far below the scores' own spread: the seeds are shared.
+    assert cells["obs"].ratio_sem == pytest.approx(difference.std(ddof=1) / np.sqrt(3) / 200.0)
+    assert cells["rh"].ratio is None and cells["rh"].ratio_sem is None
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["--scenarios", "hexagon:2"], "hexagon"),
+        (["--scenarios", "circular"], "expected SHAPE:N"),
+        (["--scenarios", "circular:0"], "expected SHAPE:N"),
+        (["--controllers", "genius"], "unknown policy 'genius'"),
+        (["--max-wind", "2"], "--max-wind"),
+    ],
+)
+def test_bad_input_is_one_line_with_status_2(tmp_path: Path, args: list[str], needle: str) -> None:
+    result = report(*args, "--out", str(tmp_path / "r"))
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0], result.stderr
+
+
+def test_scenario_keys_match_the_model_cards() -> None:
+    assert Scenario.parse("T:3").key == "t_3aircraft"
+    assert Scenario.parse("circular:2").title == "circular, 2 aircraft"
