@@ -6,6 +6,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -119,48 +120,21 @@ def test_eval_card_records_the_result_in_both_copies_of_the_card(tmp_path):
 
     torch.manual_seed(0)
     policy = export_policy(build_q_network("obs"), tmp_path / "obs.pt", {"approach": "obs"})
-    result = run(
-        "eval",
-        "--policy",
-        str(policy),
-        "--shape",
-        "t",
-        "--aircraft",
-        "3",
-        "--episodes",
-        "2",
-        "--duration",
-        "5",
-        "--card",
-        "--json",
-    )
-    assert result.returncode == 0, result.stderr
-    summary = json.loads(result.stdout)
+
+    def eval_with_card(*wind: str) -> dict[str, Any]:
+        quick = ("--shape", "t", "--aircraft", "3", "--episodes", "2", "--duration", "5")
+        result = run("eval", "--policy", str(policy), *quick, *wind, "--card", "--json")
+        assert result.returncode == 0, result.stderr
+        return json.loads(result.stdout)
+
+    summary = eval_with_card()
     sidecar = json.loads(policy.with_suffix(".json").read_text())
     recorded = sidecar["test_evaluations"]["t_3aircraft"]
     assert recorded["scores"] == summary["scores"] and recorded["seeds"] == [2_000_000, 2_000_001]
     assert TorchScriptPolicy(policy).card == sidecar
 
     # Another wind setting is recorded next to the default one, never over it.
-    result = run(
-        "eval",
-        "--policy",
-        str(policy),
-        "--shape",
-        "t",
-        "--aircraft",
-        "3",
-        "--episodes",
-        "2",
-        "--duration",
-        "5",
-        "--max-wind",
-        "0.4",
-        "--card",
-        "--json",
-    )
-    assert result.returncode == 0, result.stderr
-    weaker = json.loads(result.stdout)
+    weaker = eval_with_card("--max-wind", "0.4")
     evaluations = json.loads(policy.with_suffix(".json").read_text())["test_evaluations"]
     assert evaluations["t_3aircraft"] == recorded
     assert evaluations["t_3aircraft_maxwind0.4"]["scores"] == weaker["scores"]

@@ -80,6 +80,27 @@ CURVE_FIELDS = (
     "belief_iou_mean",
     "episodes",
 )
+POSITIVE_INT_FIELDS = (
+    "num_envs",
+    "n_aircraft",
+    "buffer_size",
+    "train_frequency",
+    "batch_size",
+    "target_network_frequency",
+    "eval_episodes",
+    "torch_threads",
+    "n_step",
+    "explore_hold",
+)
+"""Integer fields of :class:`TrainConfig` that must be >= 1 (the others must be >= 0)."""
+NON_NEGATIVE_INT_FIELDS = (
+    "total_samples",
+    "iterations",
+    "learning_starts",
+    "eval_every",
+    "checkpoint_every",
+    "exploration_samples",
+)
 
 
 @dataclass
@@ -154,29 +175,10 @@ class TrainConfig:
         """Return self, or raise :class:`LearningError` naming the bad field."""
         if self.approach not in IMAGE_SHAPES:
             raise LearningError(f"approach: expected obs or belief, got {self.approach!r}")
-        positive = (
-            "num_envs",
-            "n_aircraft",
-            "buffer_size",
-            "train_frequency",
-            "batch_size",
-            "target_network_frequency",
-            "eval_episodes",
-            "torch_threads",
-            "n_step",
-            "explore_hold",
-        )
-        for name in positive:
+        for name in POSITIVE_INT_FIELDS:
             if getattr(self, name) < 1:
                 raise LearningError(f"{name}: expected >= 1, got {getattr(self, name)}")
-        for name in (
-            "total_samples",
-            "iterations",
-            "learning_starts",
-            "eval_every",
-            "checkpoint_every",
-            "exploration_samples",
-        ):
+        for name in NON_NEGATIVE_INT_FIELDS:
             if getattr(self, name) < 0:
                 raise LearningError(f"{name}: expected >= 0, got {getattr(self, name)}")
         if not 0.0 < self.gamma <= 1.0:
@@ -847,6 +849,8 @@ __all__ = [
     "CURVE_CSV",
     "CURVE_PNG",
     "EVAL_SEED_BASE",
+    "NON_NEGATIVE_INT_FIELDS",
+    "POSITIVE_INT_FIELDS",
     "REPLAY_FILE",
     "GreedyController",
     "RunOptions",

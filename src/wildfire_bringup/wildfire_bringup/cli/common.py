@@ -87,8 +87,8 @@ def wind_vector(text: str) -> tuple[float, float]:
     return wx, wy
 
 
-def wind_bound(text: str) -> float:
-    """argparse type: a number in [0, 1], the bound of each random wind component."""
+def unit_interval(text: str) -> float:
+    """argparse type: a number in [0, 1] (a probability, a wind bound)."""
     try:
         value = float(text)
     except ValueError:
@@ -118,17 +118,27 @@ def add_episode_arguments(
         metavar="WX,WY",
         help="fixed wind; by default each seed draws it in [-W, W]^2 (see --max-wind)",
     )
-    winds.add_argument(
+    add_max_wind_argument(winds)
+    parser.add_argument(
+        "--seed", type=non_negative_int, default=default_seed, metavar="S", help=seed_help
+    )
+    add_duration_argument(parser)
+
+
+def add_max_wind_argument(parser: argparse.ArgumentParser | argparse._ActionsContainer) -> None:
+    """``--max-wind W`` (default None: the environment's 0.8)."""
+    parser.add_argument(
         "--max-wind",
-        type=wind_bound,
+        type=unit_interval,
         default=None,
         metavar="W",
         help="bound W of each random wind component (default 0.8, the training range); a "
         "seed keeps its draw, so a smaller W flies the same episodes under weaker wind",
     )
-    parser.add_argument(
-        "--seed", type=non_negative_int, default=default_seed, metavar="S", help=seed_help
-    )
+
+
+def add_duration_argument(parser: argparse.ArgumentParser) -> None:
+    """``--duration SEC``, the flight limit of an episode."""
     parser.add_argument(
         "--duration",
         type=positive_float,

@@ -12,11 +12,11 @@ from typing import Any
 
 from wildfire_bringup.cli.common import (
     UserError,
+    add_duration_argument,
+    add_max_wind_argument,
     non_negative_int,
-    positive_float,
     positive_int,
     print_json,
-    wind_bound,
 )
 from wildfire_bringup.cli.progress import progress_bar
 from wildfire_learning.controllers import BUILTIN_POLICIES, make_controller, resolve_policy_path
@@ -70,20 +70,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         metavar="S",
         help=f"first episode seed (default: {TEST_SEED_BASE}, the test range)",
     )
-    parser.add_argument(
-        "--max-wind",
-        type=wind_bound,
-        default=None,
-        metavar="W",
-        help="bound of each random wind component (default 0.8, the training range)",
-    )
-    parser.add_argument(
-        "--duration",
-        type=positive_float,
-        default=400.0,
-        metavar="SEC",
-        help="longest flight in seconds (the fire reaching the border ends it too)",
-    )
+    add_max_wind_argument(parser)
+    add_duration_argument(parser)
     parser.add_argument("--out", type=Path, default=Path("out/report"), metavar="DIR")
     parser.add_argument(
         "--fresh", action="store_true", help="evaluate again even where a stored result matches"

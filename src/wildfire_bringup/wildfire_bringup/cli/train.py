@@ -25,9 +25,11 @@ from wildfire_bringup.cli.common import (
     positive_float,
     positive_int,
     print_json,
+    unit_interval,
 )
 from wildfire_learning.architectures import ARCHITECTURES
 from wildfire_learning.dqn import (
+    POSITIVE_INT_FIELDS,
     RunOptions,
     Status,
     TrainConfig,
@@ -66,13 +68,6 @@ def _field_docs() -> dict[str, str]:
     return docs
 
 
-def _probability(text: str) -> float:
-    value = float(text)
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"expected a number in [0, 1], got {text}")
-    return value
-
-
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "train",
@@ -100,22 +95,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         elif spec.name in ("channels_last", "double_q"):
             parser.add_argument(option, action=argparse.BooleanOptionalAction, **common)
         elif spec.name in ("start_e", "end_e", "max_wind"):
-            parser.add_argument(option, type=_probability, **common)
+            parser.add_argument(option, type=unit_interval, **common)
         elif isinstance(default, float):
-            kind = _probability if spec.name == "gamma" else positive_float
+            kind = unit_interval if spec.name == "gamma" else positive_float
             parser.add_argument(option, type=kind, **common)
-        elif spec.name in (
-            "num_envs",
-            "n_aircraft",
-            "buffer_size",
-            "train_frequency",
-            "batch_size",
-            "target_network_frequency",
-            "eval_episodes",
-            "torch_threads",
-            "n_step",
-            "explore_hold",
-        ):
+        elif spec.name in POSITIVE_INT_FIELDS:
             parser.add_argument(option, type=positive_int, **common)
         else:
             parser.add_argument(option, type=non_negative_int, **common)
