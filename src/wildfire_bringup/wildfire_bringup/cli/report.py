@@ -43,8 +43,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "report",
         help="evaluate controllers on the paper's scenarios; write the results table and chart",
         description="Evaluate every controller on every scenario (the same seeds for all), then "
-        "write OUT/results.md (our table and the paper's ratios beside ours), "
-        "OUT/results.json and OUT/scores.png. Each evaluation is kept in OUT/evaluations and "
+        "write DIR/results.md (our table and the paper's ratios beside ours), "
+        "DIR/results.json and DIR/scores.png. Each evaluation is kept in DIR/evaluations and "
         "reused while its seeds, wind, flight limit and policy file are unchanged.",
     )
     parser.add_argument(
@@ -72,7 +72,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     add_max_wind_argument(parser)
     add_duration_argument(parser)
-    parser.add_argument("--out", type=Path, default=Path("out/report"), metavar="DIR")
+    parser.add_argument(
+        "--out", type=Path, default=Path("out/report"), metavar="DIR", help="(default: out/report)"
+    )
     parser.add_argument(
         "--fresh", action="store_true", help="evaluate again even where a stored result matches"
     )
