@@ -73,7 +73,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     add_max_wind_argument(parser)
     add_duration_argument(parser)
     parser.add_argument(
-        "--out", type=Path, default=Path("out/report"), metavar="DIR", help="report folder (default: out/report)"
+        "--out",
+        type=Path,
+        default=Path("out/report"),
+        metavar="DIR",
+        help="report folder (default: out/report)",
     )
     parser.add_argument(
         "--fresh", action="store_true", help="evaluate again even where a stored result matches"
