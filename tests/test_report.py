@@ -4,6 +4,7 @@ evaluations are reused, and bad input is one line."""
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -100,6 +101,21 @@ def test_bad_input_is_one_line_with_status_2(tmp_path: Path, args: list[str], ne
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and needle in lines[0], result.stderr
+
+
+def test_two_policies_of_one_name_are_refused(tmp_path: Path) -> None:
+    shipped = Path(__file__).resolve().parents[1] / "models" / "obs_policy.pt"
+    copies = []
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        copies.append(tmp_path / folder / "obs_policy.pt")
+        shutil.copy(shipped, copies[-1])
+    result = report("--controllers", *map(str, copies), "--out", str(tmp_path / "r"))
+    assert result.returncode == 2
+    assert result.stderr.strip() == (
+        "wildfire report: error: --controllers: two policies are both named 'obs_policy'; "
+        "rename one"
+    )
 
 
 def test_scenario_keys_match_the_model_cards() -> None:

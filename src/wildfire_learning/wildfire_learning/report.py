@@ -76,9 +76,14 @@ class Scenario:
         return f"{'T' if self.shape == 't' else self.shape}, {self.aircraft} aircraft"
 
 
+def controller_id(controller: str) -> str:
+    """Short name of a controller in file names: its own, or a policy file's stem."""
+    return controller if controller in CONTROLLER_LABELS else Path(controller).stem
+
+
 def controller_label(controller: str) -> str:
     """Column title of a controller name or policy file."""
-    return CONTROLLER_LABELS.get(controller, Path(controller).stem)
+    return CONTROLLER_LABELS.get(controller, controller_id(controller))
 
 
 def fingerprint(
@@ -97,7 +102,7 @@ def fingerprint(
 
 
 def evaluation_path(out_dir: Path, controller: str, scenario: Scenario) -> Path:
-    return out_dir / "evaluations" / f"{controller_label(controller)}_{scenario.key}.json"
+    return out_dir / "evaluations" / f"{controller_id(controller)}_{scenario.key}.json"
 
 
 def load_cached(path: Path, identity: dict[str, Any]) -> dict[str, Any] | None:
@@ -258,6 +263,7 @@ __all__ = [
     "PAPER_SCENARIOS",
     "Cell",
     "Scenario",
+    "controller_id",
     "controller_label",
     "evaluation_path",
     "fingerprint",

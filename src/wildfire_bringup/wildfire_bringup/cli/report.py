@@ -25,6 +25,7 @@ from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
 from wildfire_learning.report import (
     PAPER_SCENARIOS,
     Scenario,
+    controller_id,
     controller_label,
     evaluation_path,
     fingerprint,
@@ -87,16 +88,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def check_controllers(names: list[str]) -> list[str]:
-    """Distinct controller names, each known and loadable, with distinct column titles."""
+    """Distinct controller names, each known and loadable, with distinct short names (their
+    stored evaluations would overwrite each other)."""
     controllers = list(dict.fromkeys(names))
     for name in controllers:
         make_controller(name)  # a bad name or file fails now, not hours into the report
-    titles = [controller_label(name) for name in controllers]
-    for title in set(titles):
-        if titles.count(title) > 1:
-            raise UserError(
-                f"--controllers: two policies would both be titled {title!r}; rename one file"
-            )
+    ids = [controller_id(name) for name in controllers]
+    for short in set(ids):
+        if ids.count(short) > 1:
+            raise UserError(f"--controllers: two policies are both named {short!r}; rename one")
     return controllers
 
 
