@@ -100,21 +100,15 @@ def check_controllers(names: list[str]) -> list[str]:
     return controllers
 
 
-def run(args: argparse.Namespace) -> int:
-    scenarios = list(dict.fromkeys(Scenario.parse(text) for text in args.scenarios))
-    controllers = check_controllers(args.controllers)
-    out_dir: Path = args.out
-    if out_dir.exists() and not out_dir.is_dir():
-        raise UserError(f"--out {out_dir}: exists and is not a directory")
-    out_dir.mkdir(parents=True, exist_ok=True)
-    if not os.access(out_dir, os.W_OK):
-        raise UserError(f"--out {out_dir}: not writable")
-
-    base = EnvConfig(max_duration_s=args.duration)
-    if args.max_wind is not None:
-        base = replace(base, max_wind=args.max_wind)
-    base.validate()
-    seeds = list(range(args.seed, args.seed + args.episodes))
+def collect_results(
+    args: argparse.Namespace,
+    scenarios: list[Scenario],
+    controllers: list[str],
+    base: EnvConfig,
+    seeds: list[int],
+) -> tuple[dict[str, dict[str, dict[str, Any]]], list[str]]:
+    """Evaluation JSON of every (scenario, controller), stored or flown now; and the labels
+    of those flown now."""
     results: dict[str, dict[str, dict[str, Any]]] = {}
     evaluated: list[str] = []
     for scenario in scenarios:
@@ -123,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
             builtin = controller in BUILTIN_POLICIES
             policy_file = None if builtin else resolve_policy_path(controller)
             identity = fingerprint(controller, policy_file, seeds, base.max_wind, args.duration)
-            path = evaluation_path(out_dir, controller, scenario)
+            path = evaluation_path(args.out, controller, scenario)
             stored = None if args.fresh else load_cached(path, identity)
             label = f"{controller_label(controller)} on {scenario.title}"
             if stored is None:
@@ -144,12 +138,30 @@ def run(args: argparse.Namespace) -> int:
             if not args.json:
                 print(f"{label}: {stored['score_mean']:.1f} ± {stored['score_sem']:.1f} ({note})")
             results.setdefault(scenario.key, {})[controller] = stored
+    return results, evaluated
 
-    wind = f"[-{base.max_wind:g}, {base.max_wind:g}]^2"
+
+def run(args: argparse.Namespace) -> int:
+    scenarios = list(dict.fromkeys(Scenario.parse(text) for text in args.scenarios))
+    controllers = check_controllers(args.controllers)
+    out_dir: Path = args.out
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UserError(f"--out {out_dir}: exists and is not a directory")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if not os.access(out_dir, os.W_OK):
+        raise UserError(f"--out {out_dir}: not writable")
+    base = EnvConfig(max_duration_s=args.duration)
+    if args.max_wind is not None:
+        base = replace(base, max_wind=args.max_wind)
+    base.validate()
+    seeds = list(range(args.seed, args.seed + args.episodes))
+
+    results, evaluated = collect_results(args, scenarios, controllers, base, seeds)
     protocol = (
         f"Seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} episodes, the same for every controller), "
-        f"random wind in {wind}, flights of at most {args.duration:g} s ending when the fire "
-        "comes within 6 cells of the border (SPEC 2.7)."
+        f"random wind in [-{base.max_wind:g}, {base.max_wind:g}]^2, flights of at most "
+        f"{args.duration:g} s ending when the fire comes within {base.border_cells} cells of the "
+        "border (SPEC 2.7)."
     )
     markdown = results_markdown(results, scenarios, controllers, protocol)
     (out_dir / "results.md").write_text(markdown)
