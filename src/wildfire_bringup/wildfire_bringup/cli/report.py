@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -136,7 +137,10 @@ def collect_results(
             else:
                 note = f"stored in {path}"
             if not args.json:
-                print(f"{label}: {stored['score_mean']:.1f} ± {stored['score_sem']:.1f} ({note})")
+                # On stderr, like the bar: stdout carries the report alone (`| head` or a
+                # redirect never interrupts the evaluations or mixes with them).
+                score = f"{stored['score_mean']:.1f} ± {stored['score_sem']:.1f}"
+                print(f"{label}: {score} ({note})", file=sys.stderr)
             results.setdefault(scenario.key, {})[controller] = stored
     return results, evaluated
 
