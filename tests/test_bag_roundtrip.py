@@ -147,7 +147,7 @@ rclpy.init(args=[])
 node = Node("scorer")
 pub = node.create_publisher(get_message("std_msgs/msg/Float64"), "/wildfire/score", 10)
 print("ready", flush=True)
-for i in range(400):
+for i in range(3000):  # up to a minute: the test stops it, however slow the recorder starts
     pub.publish(codecs.score_to_msg(float(i)))
     time.sleep(0.02)
 rclpy.shutdown()
@@ -173,6 +173,9 @@ def test_signal_during_recording_leaves_readable_bag(
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
+            # As a non-interactive shell starts a background job: SIGINT ignored. The recorder
+            # must still stop on it (CI once ran the suite so, and the recorder hung).
+            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
         )
         end = time.monotonic() + 30
         while time.monotonic() < end and not list(bag.glob("*.mcap")) and recorder.poll() is None:

@@ -124,6 +124,18 @@ def _raise_keyboard_interrupt(_signum: int, _frame: Any) -> None:
     raise KeyboardInterrupt
 
 
+def interrupt_on_stop_signals() -> None:
+    """Turn SIGINT and SIGTERM into ``KeyboardInterrupt``: ``kill``, ``timeout``, a launcher
+    or ``docker stop`` then end a node, a recording or a training run the way Ctrl-C does.
+
+    SIGINT is set explicitly too: a process started in the background by a non-interactive
+    shell inherits SIGINT *ignored*, and Python keeps it so. Such a recorder would never see
+    the launcher's SIGINT (rclpy, likewise, installs its own handlers).
+    """
+    signal.signal(signal.SIGINT, _raise_keyboard_interrupt)
+    signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
+
+
 def run_node(
     build: Callable[[], Any],
     program: str,
@@ -132,14 +144,14 @@ def run_node(
 ) -> int:
     """Init the runtime, ``build()`` the node, spin it; return the exit status.
 
-    SIGTERM is handled like Ctrl-C so a launcher or ``docker stop`` ends the node cleanly.
+    SIGINT and SIGTERM end the node cleanly (:func:`interrupt_on_stop_signals`).
     """
     from wildfire_msgs_py.runtime import PARAMETER_ERRORS, ExternalShutdownException, rclpy
 
     errors = (*PARAMETER_ERRORS, WildfireRosError, *user_errors)
     # rclpy reads sys.argv when args is None; the DDS backend needs them given.
     args = list(sys.argv if args is None else args)
-    signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
+    interrupt_on_stop_signals()
     try:
         rclpy.init(args=args)
     except errors as error:
@@ -171,6 +183,7 @@ __all__ = [
     "contract_publisher",
     "contract_subscription",
     "declare_parameters",
+    "interrupt_on_stop_signals",
     "reject_unknown_parameters",
     "run_node",
 ]

@@ -39,19 +39,16 @@ def add_parser(subparsers: Any) -> None:
     info.set_defaults(handler=run_info)
 
 
-def _raise_interrupt(_signum: int, _frame: Any) -> None:
-    raise KeyboardInterrupt
-
-
 def run_record(args: argparse.Namespace) -> int:
     """``bag record``: finalizes the bag on Ctrl-C, SIGTERM or ``--duration``."""
     from wildfire_msgs_py.bag import BagRecorder
+    from wildfire_msgs_py.node_support import interrupt_on_stop_signals
     from wildfire_msgs_py.runtime import rclpy
 
     if args.all == bool(args.topics):
         raise UserError("give either -a/--all or one or more topics")
     topics = None if args.all else [t if t.startswith("/") else "/" + t for t in args.topics]
-    signal.signal(signal.SIGTERM, _raise_interrupt)
+    interrupt_on_stop_signals()
     rclpy.init(args=[])
     recorder = None
     try:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
 from pathlib import Path
 from typing import Any
 
@@ -210,19 +209,16 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
     return result
 
 
-def _raise_interrupt(_signum: int, _frame: Any) -> None:
-    raise KeyboardInterrupt
-
-
 def run(args: argparse.Namespace) -> int:
     from wildfire_bringup.launcher import Launcher, NodeFailure
+    from wildfire_msgs_py.node_support import interrupt_on_stop_signals
 
     if args.png is not None and not os.access(args.png.resolve().parent, os.W_OK):
         raise UserError(f"--png {args.png}: its directory is not writable")
     spec = build_spec(args)
     launcher = Launcher(spec)
     # `kill`/`timeout` stop the run like Ctrl-C: children stopped, recording finalized.
-    signal.signal(signal.SIGTERM, _raise_interrupt)
+    interrupt_on_stop_signals()
     total = round(args.duration * 10)
     label = f"run {args.policy} ({spec.mode})"
     try:

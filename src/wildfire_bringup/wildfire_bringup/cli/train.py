@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
-import signal
 import sys
 import time
 from dataclasses import fields
@@ -200,7 +199,9 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--out {out}: directory {out.parent} does not exist")
 
     # `kill PID` of a background run checkpoints like Ctrl-C does (see dqn.train).
-    signal.signal(signal.SIGTERM, _interrupt)
+    from wildfire_msgs_py.node_support import interrupt_on_stop_signals
+
+    interrupt_on_stop_signals()
     with _progress(enabled=not args.json, log_every_s=args.log_every) as report:
         result = train(config, options, report)
 
@@ -237,10 +238,6 @@ def run(args: argparse.Namespace) -> int:
         )
         print(f"wrote {result.out} (+ {result.out.with_suffix('.json').name}), curve in {run_dir}")
     return 0
-
-
-def _interrupt(signum: int, frame: object) -> None:
-    raise KeyboardInterrupt
 
 
 class _progress:
