@@ -36,6 +36,7 @@ from wildfire_learning.dqn import (
     train,
     upgrade_saved_config,
 )
+from wildfire_msgs_py.node_support import interrupt_on_stop_signals
 
 # Option name of each TrainConfig field whose CLI name differs from the field.
 OPTION_NAMES = {"learning_rate": "lr", "max_wind": "max-wind"}
@@ -199,8 +200,6 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--out {out}: directory {out.parent} does not exist")
 
     # `kill PID` of a background run checkpoints like Ctrl-C does (see dqn.train).
-    from wildfire_msgs_py.node_support import interrupt_on_stop_signals
-
     interrupt_on_stop_signals()
     with _progress(enabled=not args.json, log_every_s=args.log_every) as report:
         result = train(config, options, report)
