@@ -15,6 +15,7 @@ from wildfire_bringup.cli.progress import progress_bar
 from wildfire_learning.controllers import make_controller, resolve_policy_path
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
+from wildfire_learning.report import Scenario
 from wildfire_sim.shapes import Shape
 
 
@@ -49,7 +50,7 @@ def card_key(
 ) -> str:
     """Key of an evaluation in a model card: ``circular_2aircraft`` under the default random
     wind, with the wind setting appended otherwise (so it never replaces the default's)."""
-    key = f"{shape}_{aircraft}aircraft"
+    key = Scenario(shape, aircraft).key
     if wind is not None:
         return f"{key}_wind{wind[0]:g},{wind[1]:g}"
     if max_wind is not None:
