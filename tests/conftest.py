@@ -1,9 +1,13 @@
 """Test-wide settings.
 
 Every test that touches DDS must stay on this machine: Cyclone DDS is pinned to the
-loopback-only configuration in ``config/`` and each pytest session picks its own
+loopback-only configuration in ``config/``, Fast DDS (real rclpy) to ``config/fastdds_loopback.xml``
+with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, and each pytest session picks its own
 ``ROS_DOMAIN_ID`` so parallel runs (two developers, CI) never see each other's traffic.
-Child processes started by tests inherit both variables.
+Child processes started by tests inherit these variables.
+
+The backend is explicit: ``WILDFIRE_ROS_BACKEND`` is ``rclpy`` where the real rclpy imports,
+else ``dds``; ``scripts/test.sh`` runs the ROS-facing tests a second time with ``dds``.
 """
 
 from __future__ import annotations
@@ -13,12 +17,26 @@ from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 LOOPBACK_CONFIG = REPO_ROOT / "config" / "cyclonedds_loopback.xml"
+FASTDDS_LOOPBACK_PROFILE = REPO_ROOT / "config" / "fastdds_loopback.xml"
 
 os.environ["CYCLONEDDS_URI"] = LOOPBACK_CONFIG.as_uri()
+os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(FASTDDS_LOOPBACK_PROFILE)
+os.environ.pop("FASTDDS_DEFAULT_PROFILES_FILE", None)
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 # Domain ids 0..101 are safe on Linux for any participant count; 0 is the usual default,
 # so a test session uses 1..100, derived from its process id.
 os.environ["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 100)
-os.environ.setdefault("WILDFIRE_ROS_BACKEND", "auto")
+
+def _default_backend() -> str:
+    try:
+        import rclpy  # noqa: F401
+    except ImportError:
+        return "dds"
+    return "rclpy"
+
+
+if os.environ.get("WILDFIRE_ROS_BACKEND", "auto").strip().lower() in ("", "auto"):
+    os.environ["WILDFIRE_ROS_BACKEND"] = _default_backend()
 # One intra-op thread per process (as the `wildfire` command sets): tests start many
 # processes on two cores, where OpenMP's spinning threads would slow everything down.
 os.environ.setdefault("OMP_NUM_THREADS", "1")

@@ -6,8 +6,8 @@ process spins the :class:`RunMonitorNode` and, with a record directory, the rosb
 :class:`BagRecorder` in one executor.
 
 Every child gets the run's ``ROS_DOMAIN_ID`` (a run-unique id unless the user set one) and
-the loopback Cyclone DDS configuration (unless ``CYCLONEDDS_URI`` is set), so nothing
-leaves the machine. A child's output goes to ``<log dir>/<node>.log``; when a child dies
+the loopback-only settings of both DDS implementations (unless the user set their own, see
+:mod:`wildfire_msgs_py.network`), so nothing leaves the machine. A child's output goes to ``<log dir>/<node>.log``; when a child dies
 the launcher names it, its exit status and the last line it wrote, finalizes the recording
 and stops the rest — or, with ``respawn`` in real time, starts it again (an agent continues
 from its last published state, the aggregator recovers the belief from the agents).
@@ -29,12 +29,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wildfire_bringup.monitor_node import REPORTER, RunMonitorNode
+from wildfire_msgs_py.network import apply_local_network_defaults
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-REPO_ROOT = Path(__file__).resolve().parents[3]
-LOOPBACK_CONFIG = REPO_ROOT / "config" / "cyclonedds_loopback.xml"
 FATAL_ON_DEATH = ("fire_simulator",)
 """Nodes that cannot be respawned: a new fire simulator would restart the truth."""
 
@@ -72,7 +71,7 @@ class RunSpec:
 def child_environment(extra: dict[str, str] | None = None) -> dict[str, str]:
     """Environment of the children: loopback DDS and a run-unique domain unless set."""
     env = dict(os.environ)
-    env.setdefault("CYCLONEDDS_URI", LOOPBACK_CONFIG.as_uri())
+    apply_local_network_defaults(env)
     # Domain ids 1..100 stay within Cyclone's port range for our participant counts.
     env.setdefault("ROS_DOMAIN_ID", str(1 + (os.getpid() + int(time.time())) % 100))
     env["PYTHONUNBUFFERED"] = "1"
@@ -237,7 +236,7 @@ class Launcher:
         from wildfire_msgs_py import runtime
 
         os.environ["ROS_DOMAIN_ID"] = self.env["ROS_DOMAIN_ID"]
-        os.environ["CYCLONEDDS_URI"] = self.env["CYCLONEDDS_URI"]
+        apply_local_network_defaults()
         runtime.rclpy.init(args=[])
         start = time.monotonic()
         try:

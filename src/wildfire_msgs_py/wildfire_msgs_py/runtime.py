@@ -2,7 +2,8 @@
 
 ``WILDFIRE_ROS_BACKEND`` selects the backend when this module is first imported:
 
-* ``rclpy`` — the real rclpy of a ROS 2 Jazzy install, real rosidl message classes;
+* ``rclpy`` — the real rclpy of ROS 2 Jazzy (the pip wheels ``ros-jazzy-rclpy`` or a sourced
+  install), real rosidl message classes;
 * ``dds`` — :mod:`wildfire_msgs_py.dds`, our rclpy-compatible layer over Cyclone DDS;
 * ``auto`` (default) — rclpy when it imports, else dds.
 
@@ -24,6 +25,10 @@ import os
 from typing import Any
 
 from wildfire_msgs_py.errors import BackendError, ParameterError, UnknownMessageTypeError
+from wildfire_msgs_py.network import apply_local_network_defaults
+
+# Before rclpy or Cyclone creates anything: loopback-only DDS unless the user chose otherwise.
+apply_local_network_defaults()
 
 _CHOICES = ("auto", "rclpy", "dds")
 
@@ -78,15 +83,18 @@ if BACKEND == "rclpy":
     )
 
     def get_message(type_name: str) -> Any:
-        """The rosidl message class of ``pkg/msg/Type``."""
-        from rosidl_runtime_py.utilities import get_message as rosidl_get_message
+        """The rosidl message class of ``pkg/msg/Type``.
 
+        Imported as ``<pkg>.msg`` directly: the pip wheels of ROS 2 Jazzy have no
+        rosidl_runtime_py.
+        """
         from wildfire_msgs_py.dds.types import normalize_type_name
 
         name = normalize_type_name(type_name)
+        package, _, message = name.partition("/msg/")
         try:
-            return rosidl_get_message(name)
-        except (AttributeError, ModuleNotFoundError, ValueError):
+            return getattr(importlib.import_module(f"{package}.msg"), message)
+        except (AttributeError, ImportError, ValueError):
             raise UnknownMessageTypeError(
                 f"message type {type_name!r} is not installed in this ROS 2 environment"
             ) from None

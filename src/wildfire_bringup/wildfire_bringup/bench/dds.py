@@ -259,9 +259,9 @@ def _grid_latency(subscribers: int, messages: int, domain_id: int) -> list[float
 
 def bench_dds(quick: bool = False) -> dict[str, float | int]:
     """Run the DDS benchmarks; ``quick`` shortens them (about 10 s instead of 25 s)."""
-    from wildfire_msgs_py.dds.config import ensure_network_config
+    from wildfire_msgs_py.network import apply_local_network_defaults
 
-    ensure_network_config()
+    apply_local_network_defaults()
     domain_id = _bench_domain_id()
     subscribers = 8
     messages = 30 if quick else 100

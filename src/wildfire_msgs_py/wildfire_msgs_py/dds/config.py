@@ -1,10 +1,7 @@
-"""Cyclone DDS network configuration guard: loopback only unless the user opts in.
+"""Cyclone DDS settings of the DDS backend: the domain id, checked as ROS 2 does.
 
-Cyclone's built-in default multicasts discovery on every interface, which this project never
-allows. Before the first participant is created, :func:`ensure_network_config` installs the
-loopback configuration (the same settings as ``config/cyclonedds_loopback.xml``) whenever
-``CYCLONEDDS_URI`` is unset or empty. Users who want several hosts set ``CYCLONEDDS_URI`` to a
-file such as ``config/cyclonedds_multihost.xml`` themselves.
+The loopback-only network configuration lives in :mod:`wildfire_msgs_py.network`, shared with the
+rclpy backend.
 """
 
 from __future__ import annotations
@@ -12,26 +9,6 @@ from __future__ import annotations
 import os
 
 from wildfire_msgs_py.errors import BackendError
-
-#: Inline form of ``config/cyclonedds_loopback.xml`` (Cyclone accepts XML in CYCLONEDDS_URI).
-LOOPBACK_CONFIG_XML = (
-    '<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="any">'
-    '<General><Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>'
-    "<AllowMulticast>false</AllowMulticast></General>"
-    "<Discovery><ParticipantIndex>auto</ParticipantIndex>"
-    "<MaxAutoParticipantIndex>40</MaxAutoParticipantIndex>"
-    '<Peers><Peer address="127.0.0.1"/></Peers></Discovery>'
-    "</Domain></CycloneDDS>"
-)
-
-
-def ensure_network_config() -> str:
-    """Install the loopback configuration unless the user chose one; return what is in force."""
-    uri = os.environ.get("CYCLONEDDS_URI", "").strip()
-    if not uri:
-        os.environ["CYCLONEDDS_URI"] = LOOPBACK_CONFIG_XML
-        return LOOPBACK_CONFIG_XML
-    return uri
 
 
 def ros_domain_id() -> int:
@@ -48,4 +25,4 @@ def ros_domain_id() -> int:
     return domain
 
 
-__all__ = ["LOOPBACK_CONFIG_XML", "ensure_network_config", "ros_domain_id"]
+__all__ = ["ros_domain_id"]

@@ -16,9 +16,10 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.topic import Topic
 
 from wildfire_msgs_py.dds.arguments import RosArguments, parse_ros_arguments
-from wildfire_msgs_py.dds.config import ensure_network_config, ros_domain_id
+from wildfire_msgs_py.dds.config import ros_domain_id
 from wildfire_msgs_py.dds.log import set_global_level
 from wildfire_msgs_py.errors import ShutdownError, TopicNameError
+from wildfire_msgs_py.network import apply_local_network_defaults
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -49,7 +50,7 @@ class Context:
                 raise RuntimeError("Context.init() must only be called once")
             arguments = parse_ros_arguments(args)
             set_global_level(arguments.log_level)
-            ensure_network_config()
+            apply_local_network_defaults()
             self.domain_id = ros_domain_id() if domain_id is None else domain_id
             self.arguments = arguments
             self._participant = DomainParticipant(self.domain_id)
