@@ -16,7 +16,7 @@ import pytest
 from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
-from wildfire_learning.report import Scenario, table_cells
+from wildfire_learning.report import Scenario, results_markdown, table_cells
 
 WILDFIRE = [str(Path(sys.executable).with_name("wildfire"))]
 QUICK = ("--episodes", "2", "--duration", "5")
@@ -84,6 +84,38 @@ def test_ratio_error_is_that_of_the_paired_difference() -> None:
     # Far below the scores' own spread: the seeds are shared.
     assert cells["obs"].ratio_sem == pytest.approx(difference.std(ddof=1) / np.sqrt(3) / 200.0)
     assert cells["rh"].ratio is None and cells["rh"].ratio_sem is None
+    assert cells["obs"].ratio_rh_paper is None  # no rh-paper in this row
+
+
+def test_ratios_to_both_baselines_and_the_papers_to_rh_paper() -> None:
+    def result(scores: list[float]) -> dict[str, object]:
+        return {
+            "scores": scores,
+            "score_mean": float(np.mean(scores)),
+            "score_sem": 1.0,
+            "ceiling_fraction": 0.5,
+            "score_ceiling_mean": 500.0,
+        }
+
+    results = {
+        "circular_2aircraft": {
+            "obs": result([220.0, 330.0]),
+            "rh": result([200.0, 300.0]),
+            "rh-paper": result([180.0, 270.0]),
+        }
+    }
+    cells = table_cells(results)["circular_2aircraft"]
+    assert cells["obs"].ratio == pytest.approx(550.0 / 500.0)
+    assert cells["obs"].ratio_rh_paper == pytest.approx(550.0 / 450.0)
+    assert cells["rh-paper"].ratio == pytest.approx(450.0 / 500.0)
+    assert cells["rh"].ratio_rh_paper == pytest.approx(500.0 / 450.0)
+    assert cells["rh-paper"].ratio_rh_paper is None
+    markdown = results_markdown(
+        results, [Scenario("circular", 2)], ["obs", "rh", "rh-paper"], "protocol"
+    )
+    # The paper's 3140.5 / 2725.6 beside ours to rh-paper, then ours to rh.
+    row = next(line for line in markdown.splitlines()[-3:] if line.startswith("| circular"))
+    assert row == "| circular, 2 aircraft | 1.15x | 1.16x | 1.22x +- 0.04 | - | 1.10x +- 0.02 | - |"
 
 
 @pytest.mark.parametrize(

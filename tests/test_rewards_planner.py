@@ -7,12 +7,15 @@ import pytest
 
 from wildfire_agent import pairwise
 from wildfire_agent.dynamics import AircraftState
+from wildfire_agent.policy_names import planner_config
+from wildfire_agent.receding_horizon import plan, predict_constant_bank, score_sequences
 from wildfire_agent.rewards import (
     ObservationRewardWeights,
     fire_field_maps,
     fire_terms,
     observation_rewards,
 )
+from wildfire_sim.seeding import Stream, generator
 
 
 def strip_fire() -> np.ndarray:
@@ -71,3 +74,56 @@ def test_pairwise_states():
     assert alone.shape == (1, 1, 5) and alone[0, 0, 1] == pairwise.MAX_RANGE_M
     normalised = pairwise.normalise(raw)
     assert normalised.dtype == np.float32 and np.abs(normalised).max() <= 3.0
+
+
+def close_pair(other_x_m: float = 500.0) -> tuple[AircraftState, AircraftState]:
+    """An ownship flying north along the fire line of :func:`strip_fire`, and another aircraft
+    (P = 1, K = 1) 30 m to its left (or at ``other_x_m``), flying the same way."""
+    own = AircraftState(
+        x_m=np.array([530.0]),
+        y_m=np.array([300.0]),
+        heading_rad=np.array([np.pi / 2]),
+        bank_steps=np.array([0]),
+    )
+    other = AircraftState(
+        x_m=np.array([[other_x_m]]),
+        y_m=np.array([[300.0]]),
+        heading_rad=np.array([[np.pi / 2]]),
+        bank_steps=np.array([[0]]),
+    )
+    return own, other
+
+
+def planned(policy: str, other: AircraftState | None = None) -> np.ndarray:
+    """The (T,) plan of ``policy`` (rh or rh-paper) for the ownship of :func:`close_pair`."""
+    own, close = close_pair()
+    config = planner_config(policy)
+    assert config is not None
+    weights = ObservationRewardWeights()
+    maps = fire_field_maps(strip_fire(), weights)
+    rngs = [generator(7, Stream.AIRCRAFT, 0)]
+    env = np.zeros(1, dtype=np.int64)
+    return plan(own, other or close, env, maps, rngs, config, weights)[0]
+
+
+def test_paper_planner_plans_alone_and_ours_avoids_the_other_aircraft():
+    paper, ours = planned("rh-paper"), planned("rh")
+    # Deterministic per seed: the restarts come from the aircraft's own stream.
+    assert np.array_equal(paper, planned("rh-paper"))
+    # No model of the other aircraft: where it flies does not change the plan...
+    assert np.array_equal(paper, planned("rh-paper", close_pair(other_x_m=900.0)[1]))
+    # ...while ours, 30 m from it, plans otherwise.
+    assert not np.array_equal(paper, ours)
+    own, close = close_pair()
+    weights = ObservationRewardWeights()
+    maps = fire_field_maps(strip_fire(), weights, with_clear_count=True)
+    env = np.zeros(1, dtype=np.int64)
+    with_other = predict_constant_bank(close, paper.size)
+    alone = (np.zeros((1, 0, paper.size)), np.zeros((1, 0, paper.size)))
+
+    def score(sequence: np.ndarray, others_xy: tuple[np.ndarray, np.ndarray]) -> float:
+        return float(score_sequences(sequence[None], own, env, maps, others_xy, weights)[0])
+
+    # Each planner's plan is the better one under its own model of the other aircraft.
+    assert score(ours, with_other) > score(paper, with_other)
+    assert score(paper, alone) > score(ours, alone)

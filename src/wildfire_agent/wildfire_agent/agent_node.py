@@ -70,7 +70,7 @@ PERIOD_S = DECISION_PERIOD_NS / 1e9
 PARAMETERS = (
     ParamSpec("aircraft", 0, "index k of this aircraft (namespace /uavK)", 0, 63),
     ParamSpec("n_aircraft", 2, "aircraft in the team", 1, 64),
-    ParamSpec("policy", "rh", "rh, random, or the path of a TorchScript policy (.pt)"),
+    ParamSpec("policy", "rh", "rh, rh-paper, random, or the path of a TorchScript policy (.pt)"),
     ParamSpec("seed", 0, "episode seed (the aircraft's random stream)", 0, 2**31 - 1),
     ParamSpec("start_x", 500.0, "start position east, m", -10_000.0, 11_000.0),
     ParamSpec("start_y", 500.0, "start position north, m", -10_000.0, 11_000.0),

@@ -1,10 +1,10 @@
 """One aircraft's decision, as its agent node takes it (no ROS).
 
-:class:`Pilot` wraps one policy for aircraft ``k`` of a team of ``n``: the receding-horizon
-planner, uniformly random actions, or a TorchScript Q-network (``obs`` or ``belief`` input).
-It calls the very functions ``wildfire_learning.env`` and ``wildfire_learning.controllers``
-call, with the same shapes for the team arrays, so for the same inputs it picks the action
-the environment picks:
+:class:`Pilot` wraps one policy for aircraft ``k`` of a team of ``n`` (``policy_names``): a
+receding-horizon planner (``rh`` or ``rh-paper``), uniformly random actions, or a TorchScript
+Q-network (``obs`` or ``belief`` input). It calls the very functions
+``wildfire_learning.env`` and ``wildfire_learning.controllers`` call, with the same shapes
+for the team arrays, so for the same inputs it picks the action the environment picks:
 
 * randomness (random actions, planner restarts) comes from ``generator(seed, AIRCRAFT, k)``;
 * the planner sees the whole team ``(1, n)``, ownship ``k`` and the others in
@@ -15,14 +15,13 @@ the environment picks:
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from wildfire_agent import pairwise, sensor
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
+from wildfire_agent.policy_names import BUILTIN_POLICIES, is_policy_file, planner_config
 from wildfire_agent.receding_horizon import (
     RecedingHorizonConfig,
     RecedingHorizonController,
@@ -31,7 +30,7 @@ from wildfire_agent.receding_horizon import (
 from wildfire_agent.rewards import FireFieldMaps, ObservationRewardWeights, fire_field_maps
 from wildfire_sim.seeding import Stream, generator
 
-BUILTIN = ("rh", "random")
+BUILTIN = BUILTIN_POLICIES
 
 
 class Pilot:
@@ -55,20 +54,20 @@ class Pilot:
         self.planner: RecedingHorizonController | None = None
         self.random: RandomPolicy | None = None
         self.network: TorchScriptPolicy | None = None
-        if policy == "rh":
-            rh_config = rh_config or RecedingHorizonConfig()
+        rh_config = planner_config(policy, rh_config)
+        if rh_config is not None:
             phase = replan_phases(np.array([aircraft]), n_aircraft, rh_config.replan_every)
             self.planner = RecedingHorizonController([rng], rh_config, self.weights, phase)
             self.observation = "none"
         elif policy == "random":
             self.random = RandomPolicy([rng])
             self.observation = "none"
-        elif policy.endswith(".pt") or Path(policy).exists():
+        elif is_policy_file(policy):
             self.network = TorchScriptPolicy(policy)
             self.observation = self.network.approach
         else:
             raise AgentConfigError(
-                f"policy {policy!r}: expected rh, random or a TorchScript .pt file"
+                f"policy {policy!r}: expected rh, rh-paper, random or a TorchScript .pt file"
             )
         self._maps: FireFieldMaps | None = None
         self._maps_key: object = None

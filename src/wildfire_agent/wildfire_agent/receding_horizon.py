@@ -3,7 +3,21 @@
 Every ``replan_every`` (tau) decisions, each aircraft plans on its own (not jointly) a
 sequence of ``horizon`` (T) bank actions that maximises the summed observation-based reward
 (``rewards.py``) on the **true** fire map held fixed, and then flies its first tau actions.
-Other aircraft are predicted to hold their current bank (for the proximity term).
+
+Two baselines differ only in the planner's model of the other aircraft
+(``RecedingHorizonConfig.model_others``):
+
+* ``rh`` (ours): the others are predicted to hold their current bank over the horizon, and the
+  proximity term of the reward keeps the ownship's plan away from those predicted positions.
+* ``rh-paper`` (the paper's baseline, "not coordinated, so the two aircraft fly near each
+  other"): each aircraft plans as if it flew alone. Its model holds no other aircraft, so
+  the proximity term, whose weight is unchanged, has nothing to act on. Holding the others
+  at their current position instead was rejected: that is still a model of them, and its
+  penalty would push the aircraft apart, which the paper's planner does not do.
+
+Both keep the staggered re-planning (:func:`replan_phases`) and the same T, tau, restarts
+and reward weights: the stagger only picks which decision a plan is computed at, so that the
+team's plans do not all fall on one 100 ms period. It models no other aircraft.
 
 Optimisation is coordinate descent from ``restarts`` random sequences: each sweep scores
 every single-action flip of the current sequence and takes the best one while it improves
@@ -54,6 +68,9 @@ class RecedingHorizonConfig:
     """Random initial sequences per plan."""
     max_sweeps: int = 60
     """Safety bound on coordinate-descent sweeps per plan."""
+    model_others: bool = True
+    """Predict the other aircraft at constant bank in the proximity term (``rh``); False: each
+    aircraft plans as if alone (``rh-paper``, see the module docstring)."""
 
     def __post_init__(self) -> None:
         if not 1 <= self.replan_every < self.horizon or self.restarts < 1:
@@ -157,7 +174,12 @@ def plan(
     sequences = np.stack(
         [rng.integers(0, 2, size=(restarts, horizon)) for rng in generators]
     ).astype(np.int64)  # (P, R, T)
-    others_xy = predict_constant_bank(others, horizon)
+    if config.model_others:
+        others_xy = predict_constant_bank(others, horizon)
+    else:
+        # Planning alone: no other aircraft in the model, so no proximity penalty.
+        nobody = np.zeros((len(generators), 0, horizon))
+        others_xy = (nobody, nobody)
     scores = score_sequences(sequences, own, env, maps, others_xy, weights)
     flip = np.eye(horizon, dtype=np.int64)
     for _ in range(config.max_sweeps):

@@ -78,7 +78,7 @@ def generate_launch_description() -> LaunchDescription:
             DeclareLaunchArgument(
                 "policy",
                 default_value="rh",
-                description="rh, random or the path of a TorchScript .pt policy",
+                description="rh, rh-paper, random or the path of a TorchScript .pt policy",
             ),
             DeclareLaunchArgument("seed", default_value="0", description="episode seed"),
             OpaqueFunction(function=_nodes),

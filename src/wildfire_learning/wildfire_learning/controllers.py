@@ -1,7 +1,8 @@
 """Controllers that fly every aircraft of a :class:`WildfireVecEnv`.
 
-Each wraps one policy of ``wildfire_agent`` for the whole batch: the receding-horizon
-planner, the random controller, or a TorchScript Q-network. Per-aircraft randomness comes
+Each wraps one policy of ``wildfire_agent`` for the whole batch: a receding-horizon planner
+(``rh`` or ``rh-paper``), the random controller, or a TorchScript Q-network; policy names
+mean what ``wildfire_agent.policy_names`` says. Per-aircraft randomness comes
 from ``seeding.Stream.AIRCRAFT`` of the episode seed, so an aircraft flies the same in a
 batch of 20 episodes, alone, or as its own agent node.
 """
@@ -17,6 +18,13 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.pairwise import other_indices
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
+from wildfire_agent.policy_names import (
+    BUILTIN_POLICIES,
+    EXPECTED_POLICIES,
+    SHIPPED_POLICIES,
+    is_policy_file,
+    planner_config,
+)
 from wildfire_agent.receding_horizon import (
     RecedingHorizonConfig,
     RecedingHorizonController,
@@ -27,8 +35,6 @@ from wildfire_sim.seeding import Stream, generator
 
 MODELS_DIR = Path(__file__).resolve().parents[3] / "models"
 """Shipped policies (``obs_policy.pt``, ``belief_policy.pt``) in the repository."""
-BUILTIN_POLICIES = ("rh", "random")
-SHIPPED_POLICIES = ("obs", "belief")
 
 
 class Controller(Protocol):
@@ -77,7 +83,8 @@ class RandomController:
 
 
 class RecedingHorizonEnvController:
-    """The receding-horizon baseline, every aircraft planning on its own."""
+    """A receding-horizon baseline (``rh`` or ``rh-paper`` by ``config.model_others``), every
+    aircraft planning on its own."""
 
     observation = "none"
 
@@ -136,23 +143,23 @@ def resolve_policy_path(name: str) -> Path:
         if not path.is_file():
             raise AgentConfigError(
                 f"policy {name!r}: the shipped model {path} is missing "
-                "(train one with `wildfire train`, or use rh, random or a .pt file)"
+                "(train one with `wildfire train`, or use rh, rh-paper, random or a .pt file)"
             )
         return path
     return Path(name)
 
 
 def make_controller(policy: str, rh_config: RecedingHorizonConfig | None = None) -> Controller:
-    """Controller for a policy name: ``rh``, ``random``, ``obs``, ``belief`` or a .pt path."""
-    if policy == "rh":
-        return RecedingHorizonEnvController(rh_config)
+    """Controller for a policy name (``wildfire_agent.policy_names``); ``rh_config`` sets T,
+    tau and restarts of the planners."""
+    planner = planner_config(policy, rh_config)
+    if planner is not None:
+        return RecedingHorizonEnvController(planner)
     if policy == "random":
         return RandomController()
-    if policy in SHIPPED_POLICIES or policy.endswith(".pt") or Path(policy).exists():
+    if policy in SHIPPED_POLICIES or is_policy_file(policy):
         return QNetworkController(resolve_policy_path(policy))
-    raise AgentConfigError(
-        f"unknown policy {policy!r}: expected rh, random, obs, belief or a TorchScript .pt file"
-    )
+    raise AgentConfigError(f"unknown policy {policy!r}: expected {EXPECTED_POLICIES}")
 
 
 __all__ = [

@@ -5,11 +5,13 @@ the same seeds, so a row compares controllers episode by episode. Each result is
 in the report's ``evaluations/`` folder together with what produced it (the seeds, wind bound,
 flight limit and, for a Q-network, the SHA-256 of its file): a later report reuses it while
 those are unchanged, so adding a scenario or a controller flies only what is new. Results of
-``rh`` and ``random`` are keyed by their settings only; pass ``fresh`` after changing their
-code.
+``rh``, ``rh-paper`` and ``random`` are keyed by their settings only; pass ``fresh`` after
+changing their code.
 
-The report itself is a Markdown table (mean +- standard error, ratio to the receding horizon,
-fraction of the score ceiling), the paper's ratios beside ours, and a bar chart.
+The report itself is a Markdown table (mean +- standard error, ratio to our receding horizon
+``rh``, fraction of the score ceiling), the paper's ratios beside ours, and a bar chart. The
+paper's receding horizon is uncoordinated, so its ratios are set beside ours to ``rh-paper``
+(the same baseline, SPEC 2.6); ours to ``rh`` are given too.
 """
 
 from __future__ import annotations
@@ -29,23 +31,35 @@ CONTROLLER_LABELS = {
     "obs": "observation DQN",
     "belief": "belief DQN",
     "rh": "receding horizon",
+    "rh-paper": "receding horizon (paper)",
     "random": "random",
 }
 """Column titles of the built-in controllers (a .pt file is titled by its name)."""
 BASELINE = "rh"
-"""Ratios are to this controller's score on the same seeds."""
+"""Ratios of the main table are to this controller's score on the same seeds."""
+PAPER_BASELINE = "rh-paper"
+"""The paper's (uncoordinated) receding horizon: the paper's ratios are set beside ours to it."""
 PAPER_RESULTS: dict[str, dict[str, tuple[float, float]]] = {
     "circular_2aircraft": {
         "obs": (3140.5, 130.1),
         "belief": (3154.3, 139.9),
-        "rh": (2725.6, 115.2),
+        PAPER_BASELINE: (2725.6, 115.2),
     },
     "circular_3aircraft": {"obs": (3390.3, 146.2), "belief": (3337.2, 161.8)},
     "circular_4aircraft": {"obs": (3546.9, 152.1), "belief": (3463.8, 164.8)},
-    "t_2aircraft": {"obs": (2601.3, 73.2), "belief": (2580.7, 66.2), "rh": (2067.7, 78.7)},
-    "arc_2aircraft": {"obs": (1789.4, 102.2), "belief": (1873.9, 112.3), "rh": (1646.4, 103.0)},
+    "t_2aircraft": {
+        "obs": (2601.3, 73.2),
+        "belief": (2580.7, 66.2),
+        PAPER_BASELINE: (2067.7, 78.7),
+    },
+    "arc_2aircraft": {
+        "obs": (1789.4, 102.2),
+        "belief": (1873.9, 112.3),
+        PAPER_BASELINE: (1646.4, 103.0),
+    },
 }
-"""Julian & Kochenderfer's results (SPEC 2.7): mean and standard error per scenario."""
+"""Julian & Kochenderfer's results (SPEC 2.7): mean and standard error per scenario; its
+receding horizon is the uncoordinated one, ``rh-paper`` here."""
 PAPER_SCENARIOS = ("circular:2", "circular:3", "circular:4", "t:2", "arc:2")
 
 
@@ -125,16 +139,32 @@ def store(path: Path, identity: dict[str, Any], result: dict[str, Any]) -> dict[
 
 @dataclass(frozen=True)
 class Cell:
-    """One controller on one scenario, with its comparison to the baseline."""
+    """One controller on one scenario, with its comparison to both baselines."""
 
     mean: float
     sem: float
     ceiling_fraction: float
     ratio: float | None
-    """Mean over the baseline's mean on the same seeds (None without a baseline)."""
+    """Mean over the mean of ``rh`` on the same seeds (None without it, or for ``rh``)."""
     ratio_sem: float | None
     """Standard error of the ratio: that of the per-seed difference to the baseline, over the
     baseline's mean (the seeds are shared, so this is much smaller than the scores' own)."""
+    ratio_rh_paper: float | None = None
+    """The same to ``rh-paper``."""
+    ratio_rh_paper_sem: float | None = None
+
+
+def paired_ratio(
+    scores: np.ndarray, baseline: dict[str, Any] | None
+) -> tuple[float | None, float | None]:
+    """Ratio of means to a baseline's evaluation on the same seeds, and its standard error."""
+    if baseline is None:
+        return None, None
+    base_scores = np.array(baseline["scores"])
+    difference = scores - base_scores
+    spread = difference.std(ddof=1) if difference.size > 1 else 0.0
+    mean = base_scores.mean()
+    return float(scores.mean() / mean), float(spread / np.sqrt(difference.size) / mean)
 
 
 def table_cells(
@@ -143,23 +173,17 @@ def table_cells(
     """``results[scenario_key][controller]`` (evaluation JSON) -> cells with ratios."""
     cells: dict[str, dict[str, Cell]] = {}
     for scenario, by_controller in results.items():
-        baseline = by_controller.get(BASELINE)
-        base_scores = np.array(baseline["scores"]) if baseline else None
         row: dict[str, Cell] = {}
         for controller, result in by_controller.items():
             scores = np.array(result["scores"])
-            ratio = ratio_sem = None
-            if base_scores is not None and controller != BASELINE:
-                ratio = float(scores.mean() / base_scores.mean())
-                difference = scores - base_scores
-                spread = difference.std(ddof=1) if difference.size > 1 else 0.0
-                ratio_sem = float(spread / np.sqrt(difference.size) / base_scores.mean())
+            ours = by_controller.get(BASELINE) if controller != BASELINE else None
+            paper = by_controller.get(PAPER_BASELINE) if controller != PAPER_BASELINE else None
             row[controller] = Cell(
                 float(result["score_mean"]),
                 float(result["score_sem"]),
                 float(result["ceiling_fraction"]),
-                ratio,
-                ratio_sem,
+                *paired_ratio(scores, ours),
+                *paired_ratio(scores, paper),
             )
         cells[scenario] = row
     return cells
@@ -179,9 +203,9 @@ def results_markdown(
         "",
         protocol,
         "",
-        "Mean +- standard error of the score; in brackets the ratio to the receding horizon on",
-        "the same seeds and the fraction of the score ceiling (the most any controller could",
-        "score on those fires).",
+        "Mean +- standard error of the score; in brackets the ratio to our receding horizon",
+        "(`rh`) on the same seeds and the fraction of the score ceiling (the most any controller",
+        "could score on those fires).",
         "",
         "| scenario | ceiling | " + " | ".join(titles) + " |",
         "|---" * (len(titles) + 2) + "|",
@@ -197,31 +221,42 @@ def results_markdown(
         lines.append("| " + " | ".join(row) + " |")
     lines += [
         "",
-        "Ratio to the receding horizon, the paper's (its episode length is not stated, so only",
-        "ratios compare) and ours (+- the standard error of the paired per-seed difference, over",
-        "the receding horizon's mean):",
+        "Ratio to the receding horizon. The paper's (its episode length is not stated, so only",
+        "ratios compare) is to its uncoordinated planner, which `rh-paper` reproduces; ours are",
+        "to `rh-paper` and to our `rh` (+- the standard error of the paired per-seed",
+        "difference, over the baseline's mean):",
         "",
-        "| scenario | paper observation | paper belief | ours observation | ours belief |",
-        "|---|---|---|---|---|",
+        "| scenario | paper observation | paper belief | ours observation / rh-paper | "
+        "ours belief / rh-paper | ours observation / rh | ours belief / rh |",
+        "|---|---|---|---|---|---|---|",
     ]
     for scenario in scenarios:
         paper = PAPER_RESULTS.get(scenario.key, {})
         ours = cells[scenario.key]
 
         def paper_ratio(approach: str, paper: dict[str, tuple[float, float]] = paper) -> str:
-            if approach in paper and BASELINE in paper:
-                return f"{paper[approach][0] / paper[BASELINE][0]:.2f}x"
+            if approach in paper and PAPER_BASELINE in paper:
+                return f"{paper[approach][0] / paper[PAPER_BASELINE][0]:.2f}x"
             return "-"
 
-        def our_ratio(approach: str, ours: dict[str, Cell] = ours) -> str:
+        def our_ratio(approach: str, baseline: str, ours: dict[str, Cell] = ours) -> str:
             cell = ours.get(approach)
-            if cell is None or cell.ratio is None:
+            if cell is None:
                 return "-"
-            return f"{cell.ratio:.2f}x +- {cell.ratio_sem:.2f}"
+            if baseline == BASELINE:
+                ratio, sem = cell.ratio, cell.ratio_sem
+            else:
+                ratio, sem = cell.ratio_rh_paper, cell.ratio_rh_paper_sem
+            return "-" if ratio is None else f"{ratio:.2f}x +- {sem:.2f}"
 
         lines.append(
             f"| {scenario.title} | {paper_ratio('obs')} | {paper_ratio('belief')} | "
-            f"{our_ratio('obs')} | {our_ratio('belief')} |"
+            + " | ".join(
+                our_ratio(approach, baseline)
+                for baseline in (PAPER_BASELINE, BASELINE)
+                for approach in ("obs", "belief")
+            )
+            + " |"
         )
     return "\n".join(lines) + "\n"
 
@@ -259,6 +294,7 @@ def plot_scores(
 
 __all__ = [
     "BASELINE",
+    "PAPER_BASELINE",
     "PAPER_RESULTS",
     "PAPER_SCENARIOS",
     "Cell",
@@ -268,6 +304,7 @@ __all__ = [
     "evaluation_path",
     "fingerprint",
     "load_cached",
+    "paired_ratio",
     "plot_scores",
     "results_markdown",
     "store",

@@ -106,7 +106,8 @@ def add_episode_arguments(
     parser.add_argument(
         "--policy",
         default="rh",
-        help="rh (receding horizon), random, obs, belief (shipped models) or a TorchScript .pt",
+        help="rh (our receding horizon), rh-paper (the paper's, uncoordinated), random, obs, "
+        "belief (shipped models) or a TorchScript .pt",
     )
     parser.add_argument("--aircraft", type=positive_int, default=2, metavar="N")
     parser.add_argument("--shape", default="circular", help="circular, t or arc")

@@ -12,7 +12,7 @@ from wildfire_bringup.cli.common import (
     scenario_settings,
 )
 from wildfire_bringup.cli.progress import progress_bar
-from wildfire_learning.controllers import make_controller, resolve_policy_path
+from wildfire_learning.controllers import BUILTIN_POLICIES, make_controller, resolve_policy_path
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
 from wildfire_learning.report import Scenario
@@ -61,7 +61,7 @@ def card_key(
 def run(args: argparse.Namespace) -> int:
     shape = Shape.parse(args.shape)
     controller = make_controller(args.policy)
-    if args.card and args.policy in ("rh", "random"):
+    if args.card and args.policy in BUILTIN_POLICIES:
         raise UserError(f"--card: policy {args.policy} has no model card (a Q-network has)")
     config = EnvConfig(shapes=(shape.value,), **scenario_settings(args)).validate()
     seeds = list(range(args.seed, args.seed + args.episodes))

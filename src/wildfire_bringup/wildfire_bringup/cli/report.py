@@ -37,7 +37,7 @@ from wildfire_learning.report import (
     table_cells,
 )
 
-DEFAULT_CONTROLLERS = ("obs", "belief", "rh", "random")
+DEFAULT_CONTROLLERS = ("obs", "belief", "rh", "rh-paper", "random")
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -54,7 +54,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         nargs="+",
         default=list(DEFAULT_CONTROLLERS),
         metavar="POLICY",
-        help="rh, random, obs, belief (shipped models) or TorchScript .pt files "
+        help="rh, rh-paper, random, obs, belief (shipped models) or TorchScript .pt files "
         f"(default: {' '.join(DEFAULT_CONTROLLERS)})",
     )
     parser.add_argument(

@@ -70,20 +70,21 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def resolve_policy(policy: str) -> str:
-    """``rh``/``random`` as is; ``obs``/``belief``/``.pt`` checked and made absolute."""
+    """``rh``/``rh-paper``/``random`` as is; ``obs``/``belief``/``.pt`` checked and made
+    absolute."""
     from wildfire_agent.policies import TorchScriptPolicy
-    from wildfire_learning.controllers import (
+    from wildfire_agent.policy_names import (
         BUILTIN_POLICIES,
+        EXPECTED_POLICIES,
         SHIPPED_POLICIES,
-        resolve_policy_path,
+        is_policy_file,
     )
+    from wildfire_learning.controllers import resolve_policy_path
 
     if policy in BUILTIN_POLICIES:
         return policy
-    if policy not in SHIPPED_POLICIES and not policy.endswith(".pt") and not Path(policy).exists():
-        raise UserError(
-            f"--policy {policy!r}: expected obs, belief, rh, random or a TorchScript .pt file"
-        )
+    if policy not in SHIPPED_POLICIES and not is_policy_file(policy):
+        raise UserError(f"--policy {policy!r}: expected {EXPECTED_POLICIES}")
     path = resolve_policy_path(policy).resolve()
     TorchScriptPolicy(path)  # a missing or incompatible file fails here, in one line
     return str(path)
