@@ -15,8 +15,9 @@ from rosbags.highlevel import AnyReader
 
 from wildfire_msgs_py import codecs
 from wildfire_msgs_py.bag import BagRecorder, BagWriter, bag_info, read_messages
-from wildfire_msgs_py.dds.types import serialize, typestore
+from wildfire_msgs_py.dds.types import typestore
 from wildfire_msgs_py.errors import BagError
+from wildfire_msgs_py.runtime import serialize_message as serialize
 
 
 def _write_sample_bag(path: Path) -> tuple[np.ndarray, list[np.ndarray]]:

@@ -22,7 +22,7 @@ from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
 from wildfire_msgs_py import codecs, contract
 from wildfire_msgs_py.bag import BagWriter
-from wildfire_msgs_py.dds.types import serialize
+from wildfire_msgs_py.runtime import serialize_message as serialize
 
 DECISION_NS = 100_000_000
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))

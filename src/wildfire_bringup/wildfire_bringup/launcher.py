@@ -246,7 +246,10 @@ class Launcher:
             if self.spec.record_dir is not None:
                 from wildfire_msgs_py.bag import BagRecorder
 
-                self.recorder = BagRecorder(self.spec.record_dir, discovery_period=0.2)
+                # Lockstep bags log sim time (/clock), so `bag play` replays them at sim pace.
+                self.recorder = BagRecorder(
+                    self.spec.record_dir, discovery_period=0.2, use_sim_time=self.spec.lockstep
+                )
                 self.executor.add_node(self.recorder.node)
             for name, command in node_commands(self.spec).items():
                 self.start_node(name, command)
