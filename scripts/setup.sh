@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Create .venv and install the pinned dependencies and every package under src/.
+# Create .venv and install the pinned dependencies, the real rclpy of ROS 2 Jazzy where its
+# wheels exist, and every package under src/.
 # Idempotent: a second run only re-checks what is installed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -11,7 +12,7 @@ if [ ! -x .venv/bin/python ]; then
 fi
 
 stamp=.venv/.wildfire-setup-stamp
-want=$(cat requirements.txt src/*/setup.py | sha256sum | cut -d' ' -f1)
+want=$(cat requirements.txt requirements-ros.txt src/*/setup.py | sha256sum | cut -d' ' -f1)
 if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && [ -x .venv/bin/wildfire ]; then
   echo "setup: .venv is up to date"
   exit 0
@@ -29,6 +30,13 @@ pip_install() {
 : >"$log"
 pip_install --upgrade pip
 pip_install -r requirements.txt
+# Real rclpy (the default runtime) where its wheels exist: CPython 3.10-3.13 on x86_64 Linux.
+if .venv/bin/python -c 'import platform, sys; sys.exit(not (platform.system() == "Linux"
+    and platform.machine() == "x86_64" and (3, 10) <= sys.version_info[:2] <= (3, 13)))'; then
+  pip_install -r requirements-ros.txt
+else
+  echo "setup: no ROS 2 Jazzy wheels for $(.venv/bin/python -c 'import platform; print(platform.system(), platform.machine(), "Python", platform.python_version())'): the Cyclone DDS layer serves (WILDFIRE_ROS_BACKEND=dds)"
+fi
 # Editable installs: the CLI and the ROS 2 entry points run the working tree's code.
 pkgs=()
 for pkg in src/*/; do pkgs+=(-e "$pkg"); done

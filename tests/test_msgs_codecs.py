@@ -8,20 +8,20 @@ import numpy as np
 import pytest
 
 from wildfire_msgs_py import codecs, contract
-from wildfire_msgs_py.dds.types import deserialize, serialize, typestore
+from wildfire_msgs_py.dds.types import typestore
 from wildfire_msgs_py.errors import MessageFieldError
 from wildfire_msgs_py.introspection import message_to_yaml, set_message_fields
-from wildfire_msgs_py.runtime import get_message
+from wildfire_msgs_py.runtime import deserialize_message, get_message, serialize_message
 
 
 def _wire(msg: object) -> object:
-    """The message as a subscriber gets it: serialized and deserialized."""
-    return deserialize(serialize(msg), type(msg))
+    """The message as a subscriber of the active backend gets it: serialized and deserialized."""
+    return deserialize_message(serialize_message(msg), type(msg))
 
 
 def _rosbags(msg: object, type_name: str) -> object:
     """The message as read back from a bag by rosbags (numpy arrays)."""
-    return typestore().deserialize_cdr(serialize(msg), type_name)
+    return typestore().deserialize_cdr(serialize_message(msg), type_name)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

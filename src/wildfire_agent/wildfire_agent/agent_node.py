@@ -181,10 +181,14 @@ class AgentNode(Node):
 
         contract_subscription(self, contract.FIRE_MAP, self.fire_map_callback)
         contract_subscription(self, contract.EPISODE, self.episode_callback)
-        contract_subscription(self, contract.BELIEF, self.belief_callback)
-        contract_subscription(self, contract.BELIEF_AGE_EXACT, self.belief_age_callback)
-        contract_subscription(self, contract.SCORE, self.score_callback)
-        contract_subscription(self, contract.BELIEF_REQUEST, self.belief_request_callback)
+        # The shared belief is an input of belief policies, and in real time each agent keeps
+        # a copy for an aggregator that restarts (lockstep runs never respawn): a lockstep
+        # agent flying another policy skips two 100 x 100 grids per tick.
+        if self.pilot.needs_belief or self.mode == "realtime":
+            contract_subscription(self, contract.BELIEF, self.belief_callback)
+            contract_subscription(self, contract.BELIEF_AGE_EXACT, self.belief_age_callback)
+            contract_subscription(self, contract.SCORE, self.score_callback)
+            contract_subscription(self, contract.BELIEF_REQUEST, self.belief_request_callback)
         for j in self.peer_states:
             contract_subscription(
                 self,

@@ -8,9 +8,58 @@ publishers found in the graph, as ``ros2 topic echo`` and ``ros2 bag record`` do
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 from wildfire_msgs_py.contract import spec_for
+
+
+class EndpointInfo(NamedTuple):
+    """One publisher or subscription of a topic, as ``ros2 topic info -v`` lists it."""
+
+    kind: str
+    """``PUBLISHER`` or ``SUBSCRIPTION``."""
+    node: str
+    """Fully qualified node name, or the DDS participant where the node is not known."""
+    reliability: str
+    durability: str
+    history: str
+    """``KEEP_LAST (depth)`` or ``KEEP_ALL``."""
+
+
+def endpoint_infos(node: Any, topic: str) -> list[EndpointInfo]:
+    """Every endpoint of ``topic`` in the graph with its QoS, on either backend."""
+    from wildfire_msgs_py.runtime import BACKEND, HistoryPolicy
+
+    if BACKEND == "dds":
+        return [
+            EndpointInfo(
+                "PUBLISHER" if e.kind == "publication" else "SUBSCRIPTION",
+                f"participant {e.participant}",
+                e.qos["reliability"],
+                e.qos["durability"],
+                e.qos["history"],
+            )
+            for e in node.context.graph().endpoints(topic)
+        ]
+    infos = []
+    for kind, found in (
+        ("PUBLISHER", node.get_publishers_info_by_topic(topic)),
+        ("SUBSCRIPTION", node.get_subscriptions_info_by_topic(topic)),
+    ):
+        for info in found:
+            qos = info.qos_profile
+            history = (
+                "KEEP_ALL"
+                if qos.history == HistoryPolicy.KEEP_ALL
+                else f"KEEP_LAST ({qos.depth})"
+            )
+            name = info.node_name
+            if name and name != "_NODE_NAME_UNKNOWN_":
+                name = f"{info.node_namespace.rstrip('/')}/{name}"
+            infos.append(
+                EndpointInfo(kind, name, qos.reliability.name, qos.durability.name, history)
+            )
+    return infos
 
 
 def publisher_qos_flags(node: Any, topic: str) -> tuple[bool, bool] | None:
@@ -55,4 +104,4 @@ def adapted_qos(node: Any, topic: str, depth: int = 10) -> Any:
     )
 
 
-__all__ = ["adapted_qos", "publisher_qos_flags"]
+__all__ = ["EndpointInfo", "adapted_qos", "endpoint_infos", "publisher_qos_flags"]

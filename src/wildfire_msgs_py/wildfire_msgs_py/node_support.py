@@ -27,6 +27,9 @@ from wildfire_msgs_py.errors import ParameterError, WildfireRosError
 
 EXIT_USER_ERROR = 2
 
+#: The command line ``run_node`` initialized the runtime with (``None``: ``sys.argv``).
+_init_args: list[str] | None = None
+
 
 @dataclass(frozen=True)
 class ParamSpec:
@@ -68,6 +71,7 @@ def declare_parameters(node: Any, specs: Sequence[ParamSpec]) -> dict[str, Any]:
     """Declare ``specs`` on ``node`` and return their values by name (checked)."""
     values = {}
     for spec in specs:
+        _accept_integer_for_double(node, spec)
         value = node.declare_parameter(spec.name, spec.default, spec.descriptor()).value
         if spec.choices is not None and value not in spec.choices:
             raise ParameterError(
@@ -82,20 +86,57 @@ def declare_parameters(node: Any, specs: Sequence[ParamSpec]) -> dict[str, Any]:
 def reject_unknown_parameters(node: Any, specs: Sequence[ParamSpec]) -> None:
     """Raise :class:`ParameterError` for an override addressed to ``node`` it does not declare."""
     known = {spec.name for spec in specs} | {"use_sim_time"}
-    overrides = getattr(node, "_overrides", None)  # DDS backend: name -> ParameterOverride
-    if overrides is None:
-        return  # rclpy keeps no record of where an override came from: nothing to check
-    for name, override in overrides.items():
+    sourced = _command_line_overrides(node)
+    for name, override in sourced.items():
         if name in known or override.node_pattern in ("/**", "**"):
             continue
         raise ParameterError(
             f"{override.source}: unknown parameter {name!r} for node "
             f"{node.get_fully_qualified_name()} (known: {', '.join(sorted(known))})"
         )
-    explicit = getattr(node, "_explicit_overrides", {})
-    for name in explicit:
+    for name in _constructor_overrides(node, sourced):
         if name not in known:
             raise ParameterError(f"unknown parameter {name!r} for node {node.get_name()}")
+
+
+def _command_line_overrides(node: Any) -> dict[str, Any]:
+    """Overrides from ``-p`` and parameter files addressed to ``node``, with their source.
+
+    The DDS backend keeps them on the node. rclpy merges every source into one dict with no
+    origin, so the command line rclpy was initialized with is parsed again by the same parser
+    (:func:`wildfire_msgs_py.dds.arguments.parse_ros_arguments`).
+    """
+    overrides = getattr(node, "_overrides", None)
+    if overrides is not None:
+        return dict(overrides)
+    from wildfire_msgs_py.dds.arguments import parse_ros_arguments
+
+    args = sys.argv if _init_args is None else _init_args
+    return parse_ros_arguments(args).parameters_for(node.get_fully_qualified_name())
+
+
+def _constructor_overrides(node: Any, sourced: dict[str, Any]) -> set[str]:
+    """Names given as ``Node(..., parameter_overrides=...)``."""
+    explicit = getattr(node, "_explicit_overrides", None)  # DDS backend
+    if explicit is not None:
+        return set(explicit)
+    return set(getattr(node, "_parameter_overrides", {})) - set(sourced)
+
+
+def _accept_integer_for_double(node: Any, spec: ParamSpec) -> None:
+    """Let ``-p gain:=1`` set a double parameter, as the DDS backend does.
+
+    rclpy refuses an INTEGER override for a DOUBLE parameter; its overrides live in
+    ``Node._parameter_overrides`` (rclpy 7.1), where the value is widened before declaring.
+    """
+    overrides = getattr(node, "_parameter_overrides", None)
+    if not isinstance(spec.default, float) or not overrides or spec.name not in overrides:
+        return
+    value = overrides[spec.name].value
+    if isinstance(value, int) and not isinstance(value, bool):
+        from wildfire_msgs_py.runtime import Parameter
+
+        overrides[spec.name] = Parameter(spec.name, value=float(value))
 
 
 def contract_publisher(node: Any, spec: TopicSpec, aircraft: int | None = None) -> Any:
@@ -146,24 +187,39 @@ def run_node(
 
     SIGINT and SIGTERM end the node cleanly (:func:`interrupt_on_stop_signals`).
     """
-    from wildfire_msgs_py.runtime import PARAMETER_ERRORS, ExternalShutdownException, rclpy
+    from wildfire_msgs_py.dds.arguments import parse_ros_arguments
+    from wildfire_msgs_py.runtime import (
+        INIT_ERRORS,
+        PARAMETER_ERRORS,
+        ExternalShutdownException,
+        NodeExecutor,
+        rclpy,
+    )
 
+    global _init_args
     errors = (*PARAMETER_ERRORS, WildfireRosError, *user_errors)
     # rclpy reads sys.argv when args is None; the DDS backend needs them given.
     args = list(sys.argv if args is None else args)
+    _init_args = args
     interrupt_on_stop_signals()
     try:
+        # Our parser first: a missing or malformed parameter file gets one line naming it on
+        # both backends (rcl's own message is a multi-line parser trace).
+        parse_ros_arguments(args)
         rclpy.init(args=args)
-    except errors as error:
-        print(f"{program}: error: {error}", file=sys.stderr)
+    except (*errors, *INIT_ERRORS) as error:
+        print(f"{program}: error: {_first_line(error)}", file=sys.stderr)
         return EXIT_USER_ERROR
     node = None
     status = 0
+    executor = None
     try:
         node = build()
-        rclpy.spin(node)
+        executor = NodeExecutor()
+        executor.add_node(node)
+        executor.spin()
     except errors as error:
-        print(f"{program}: error: {error}", file=sys.stderr)
+        print(f"{program}: error: {_first_line(error)}", file=sys.stderr)
         status = EXIT_USER_ERROR
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
@@ -171,10 +227,17 @@ def run_node(
         # A second signal during clean-up must not turn into a traceback.
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        if executor is not None:
+            executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
     return status
+
+
+def _first_line(error: BaseException) -> str:
+    text = str(error).strip()
+    return text.splitlines()[0] if text else type(error).__name__
 
 
 __all__ = [

@@ -15,7 +15,8 @@ Node code imports everything from here and runs unchanged on both::
     OccupancyGrid = get_message("nav_msgs/msg/OccupancyGrid")
 
 ``serialize_message``/``deserialize_message`` convert to and from CDR bytes (as
-``rclpy.serialization``), ``PARAMETER_ERRORS`` lists the exceptions a bad parameter raises.
+``rclpy.serialization``), ``PARAMETER_ERRORS`` lists the exceptions a bad parameter raises and
+``INIT_ERRORS`` those of a command line ``rclpy.init`` refuses.
 """
 
 from __future__ import annotations
@@ -60,6 +61,7 @@ if BACKEND == "rclpy":
     import rclpy
     from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
     from rclpy.duration import Duration
+    from rclpy._rclpy_pybind11 import RCLError
     from rclpy.exceptions import (
         InvalidParameterTypeException,
         InvalidParameterValueException,
@@ -67,6 +69,11 @@ if BACKEND == "rclpy":
         ParameterNotDeclaredException,
     )
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+
+    if os.environ.get("WILDFIRE_EXECUTOR", "events") == "events":
+        from rclpy.experimental import EventsExecutor as NodeExecutor
+    else:
+        NodeExecutor = SingleThreadedExecutor
     from rclpy.node import Node
     from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -74,6 +81,14 @@ if BACKEND == "rclpy":
     from rclpy.time import Time
     from rclpy.utilities import remove_ros_args
 
+    def rmw_implementation() -> str:
+        """The middleware under rclpy, e.g. ``rmw_fastrtps_cpp`` (as ``ros2 doctor`` names it)."""
+        from rclpy.utilities import get_rmw_implementation_identifier
+
+        return str(get_rmw_implementation_identifier())
+
+    # rcl's refusal of a command line (e.g. a malformed --ros-args value) at rclpy.init.
+    INIT_ERRORS: tuple[type[BaseException], ...] = (RCLError,)
     PARAMETER_ERRORS: tuple[type[BaseException], ...] = (
         ParameterError,
         InvalidParameterTypeException,
@@ -104,6 +119,8 @@ else:
     from wildfire_msgs_py.dds.clock import Duration, Time
     from wildfire_msgs_py.dds.context import ExternalShutdownException
     from wildfire_msgs_py.dds.executor import SingleThreadedExecutor
+
+    NodeExecutor = SingleThreadedExecutor
     from wildfire_msgs_py.dds.node import Node
     from wildfire_msgs_py.dds.parameters import Parameter
     from wildfire_msgs_py.dds.qos import (
@@ -117,6 +134,12 @@ else:
     from wildfire_msgs_py.dds.types import serialize as serialize_message
 
     remove_ros_args = rclpy.remove_ros_args
+
+    def rmw_implementation() -> str:
+        """Our Cyclone DDS layer speaks the wire format of rmw_cyclonedds_cpp."""
+        return "wildfire_cyclonedds"
+
+    INIT_ERRORS = ()
     PARAMETER_ERRORS = (ParameterError,)
     ParameterDescriptor = get_message("rcl_interfaces/msg/ParameterDescriptor")
     FloatingPointRange = get_message("rcl_interfaces/msg/FloatingPointRange")
@@ -129,6 +152,7 @@ else:
 
 __all__ = [
     "BACKEND",
+    "INIT_ERRORS",
     "PARAMETER_ERRORS",
     "DurabilityPolicy",
     "Duration",
@@ -137,6 +161,7 @@ __all__ = [
     "HistoryPolicy",
     "IntegerRange",
     "Node",
+    "NodeExecutor",
     "Parameter",
     "ParameterDescriptor",
     "QoSProfile",
@@ -147,5 +172,6 @@ __all__ = [
     "get_message",
     "rclpy",
     "remove_ros_args",
+    "rmw_implementation",
     "serialize_message",
 ]

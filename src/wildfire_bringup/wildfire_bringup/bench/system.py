@@ -1,21 +1,35 @@
 """Benchmarks of the distributed system (``wildfire bench`` calls :func:`bench_system`).
 
-* lockstep speed-up over real time with 3 aircraft (receding horizon), target >= 5x;
+For each ROS runtime backend (real rclpy on Fast DDS, and our Cyclone DDS layer), in the same
+``wildfire bench`` run:
+
+* lockstep speed-up over real time with 3 aircraft (receding horizon), from the first tick to
+  the last; target >= 8x on rclpy, and rclpy's flight wall time <= 1.3x the Cyclone layer's;
 * real time with 8 aircraft at 10 Hz: fraction of decisions that missed their 100 ms slot
-  (from every agent's ``/uavK/deadline`` statistics), target < 1 %.
+  (from every agent's deadline statistics), target < 1 % on a quiet machine.
+
+The runtime backend is chosen once per process, so each backend is measured in a child
+process (``python -m wildfire_bringup.bench.system --backend B``).
 """
 
 from __future__ import annotations
 
+import argparse
+import json
+import os
+import subprocess
+import sys
 from typing import Any
 
 import numpy as np
 
-from wildfire_bringup.launcher import Launcher, RunSpec
-from wildfire_learning.env import EnvConfig, draw_scenario
+BACKENDS = ("rclpy", "dds")
 
 
-def _spec(n: int, duration: float, lockstep: bool, seed: int = 1_000_000) -> RunSpec:
+def _spec(n: int, duration: float, lockstep: bool, seed: int = 1_000_000) -> Any:
+    from wildfire_bringup.launcher import RunSpec
+    from wildfire_learning.env import EnvConfig, draw_scenario
+
     scenario = draw_scenario(seed, EnvConfig(n_aircraft=n, max_duration_s=duration))
     start = np.stack([scenario.start.x_m, scenario.start.y_m, scenario.start.heading_rad], axis=1)
     return RunSpec(
@@ -30,15 +44,22 @@ def _spec(n: int, duration: float, lockstep: bool, seed: int = 1_000_000) -> Run
     )
 
 
-def bench_system(quick: bool = False) -> dict[str, Any]:
-    """Measure lockstep speed-up (3 aircraft) and real-time missed deadlines (8 aircraft)."""
+def measure_system(quick: bool = False) -> dict[str, Any]:
+    """Lockstep speed-up (3 aircraft) and real-time missed deadlines (8 aircraft), this process's
+    backend."""
+    from wildfire_bringup.launcher import Launcher
+    from wildfire_msgs_py.runtime import BACKEND, rmw_implementation
+
     duration = 20.0 if quick else 60.0
     launcher = Launcher(_spec(3, duration, lockstep=True))
     monitor = launcher.run()
     flown = monitor.status.tick / 10.0 if monitor.status else 0.0
     result: dict[str, Any] = {
+        "backend": BACKEND,
+        "rmw": rmw_implementation(),
         "lockstep_aircraft": 3,
         "lockstep_sim_s": flown,
+        "lockstep_score": round(monitor.score),
         "lockstep_wall_s": launcher.wall_s,
         "lockstep_flight_wall_s": launcher.flight_wall_s,
         # Speed of the running system (first tick to last); start-up is reported apart.
@@ -61,7 +82,57 @@ def bench_system(quick: bool = False) -> dict[str, Any]:
     return result
 
 
-if __name__ == "__main__":
-    import json
+def _backend_available(backend: str) -> bool:
+    if backend == "dds":
+        return True
+    try:
+        import rclpy  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
-    print(json.dumps(bench_system(), indent=2))
+
+def bench_system(quick: bool = False) -> dict[str, Any]:
+    """Both backends, one after the other, each in its own process; flat figures by backend."""
+    result: dict[str, Any] = {}
+    for backend in BACKENDS:
+        if not _backend_available(backend):
+            result[f"{backend}_skipped"] = "rclpy does not import (no ROS 2 Jazzy wheels here)"
+            continue
+        command = [sys.executable, "-m", "wildfire_bringup.bench.system", "--backend", backend]
+        env = {**os.environ, "WILDFIRE_ROS_BACKEND": backend}
+        done = subprocess.run(
+            [*command, *(["--quick"] if quick else [])],
+            env=env,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        if done.returncode != 0:
+            tail = (done.stderr.strip().splitlines() or ["no output"])[-1]
+            result[f"{backend}_failed"] = tail
+            continue
+        figures = json.loads(done.stdout)
+        result[f"{backend}_rmw"] = figures.pop("rmw")
+        figures.pop("backend")
+        result |= {f"{backend}_{key}": value for key, value in figures.items()}
+    if "rclpy_lockstep_flight_wall_s" in result and "dds_lockstep_flight_wall_s" in result:
+        # Same seed and flight on both: the wall-time ratio compares the runtimes alone.
+        result["rclpy_over_dds_lockstep_wall"] = (
+            result["rclpy_lockstep_flight_wall_s"] / result["dds_lockstep_flight_wall_s"]
+        )
+    return result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description="Distributed-system figures of one backend.")
+    parser.add_argument("--backend", choices=BACKENDS, required=True)
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args()
+    if os.environ.get("WILDFIRE_ROS_BACKEND") != args.backend:
+        os.environ["WILDFIRE_ROS_BACKEND"] = args.backend
+    print(json.dumps(measure_system(args.quick)))
+
+
+if __name__ == "__main__":
+    main()

@@ -135,7 +135,7 @@ def run_list(args: argparse.Namespace) -> int:
 def run_echo(args: argparse.Namespace) -> int:
     """``topic echo``."""
     from wildfire_msgs_py.introspection import message_to_yaml
-    from wildfire_msgs_py.runtime import get_message, rclpy
+    from wildfire_msgs_py.runtime import Duration, get_message, rclpy
 
     topic = _absolute(args.topic)
     msg_type = get_message(args.type) if args.type else None  # bad type: fail before DDS
@@ -220,7 +220,7 @@ def format_rate(arrivals: list[float]) -> str:
 
 def run_info(args: argparse.Namespace) -> int:
     """``topic info``."""
-    from wildfire_msgs_py.runtime import BACKEND
+    from wildfire_msgs_py.graph import endpoint_infos
 
     topic = _absolute(args.topic)
     with ros_node("wildfire_topic_info") as node:
@@ -236,13 +236,12 @@ def run_info(args: argparse.Namespace) -> int:
         print(f"Type: {', '.join(types)}")
         print(f"Publisher count: {node.count_publishers(topic)}")
         print(f"Subscription count: {node.count_subscribers(topic)}")
-        if args.verbose and BACKEND == "dds":
-            for endpoint in node.context.graph().endpoints(topic):
-                qos = endpoint.qos
+        if args.verbose:
+            for endpoint in endpoint_infos(node, topic):
                 print(
-                    f"\n{endpoint.kind}: participant {endpoint.participant}\n"
-                    f"  Reliability: {qos['reliability']}\n  Durability: {qos['durability']}\n"
-                    f"  History (Depth): {qos['history']}"
+                    f"\nNode name: {endpoint.node}\nEndpoint type: {endpoint.kind}\n"
+                    f"QoS profile:\n  Reliability: {endpoint.reliability}\n"
+                    f"  History (Depth): {endpoint.history}\n  Durability: {endpoint.durability}"
                 )
     return 0
 
@@ -264,7 +263,7 @@ def parse_values(text: str) -> Any:
 def run_pub(args: argparse.Namespace) -> int:
     """``topic pub``."""
     from wildfire_msgs_py.introspection import set_message_fields
-    from wildfire_msgs_py.runtime import get_message, rclpy
+    from wildfire_msgs_py.runtime import Duration, get_message, rclpy
 
     topic = _absolute(args.topic)
     msg_type = get_message(args.type)
@@ -287,7 +286,9 @@ def run_pub(args: argparse.Namespace) -> int:
             if times is not None and count >= times:
                 break
             time.sleep(max(0.0, next_time - time.monotonic()))
-        time.sleep(0.3)  # let reliable delivery finish before the writer goes away
+        # Reliable delivery must finish before the writer goes away (a late reader is still
+        # being served by retransmissions).
+        publisher.wait_for_all_acked(Duration(seconds=args.wait_matching))
     return 0
 
 

@@ -5,11 +5,12 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from cyclonedds._clayer import ddspy_take
-from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState
+from cyclonedds.core import DDSException, InstanceState, ReadCondition, SampleState, ViewState
+from cyclonedds.util import duration
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 
-from wildfire_msgs_py.dds.qos import QoSProfile, to_cyclone
+from wildfire_msgs_py.dds.qos import QoSProfile, ReliabilityPolicy, to_cyclone
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -56,6 +57,21 @@ class Publisher:
     def get_subscription_count(self) -> int:
         """Number of matched subscriptions (any process)."""
         return 0 if self._writer is None else len(self._writer.get_matched_subscriptions())
+
+    def wait_for_all_acked(self, timeout: Any = None) -> bool:
+        """Block until every matched reliable reader acknowledged what was written.
+
+        ``timeout`` is a :class:`~wildfire_msgs_py.dds.clock.Duration` (None: forever), as in
+        rclpy. Best-effort publishers return True at once.
+        """
+        if self._writer is None or self.qos_profile.reliability != ReliabilityPolicy.RELIABLE:
+            return True
+        nanoseconds = None if timeout is None else int(timeout.nanoseconds)
+        limit = duration(infinite=True) if nanoseconds is None or nanoseconds < 0 else nanoseconds
+        try:
+            return bool(self._writer.wait_for_acks(limit))
+        except DDSException:
+            return False
 
     def destroy(self) -> None:
         """Delete the DDS writer."""
