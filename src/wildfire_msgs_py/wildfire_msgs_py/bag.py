@@ -237,6 +237,8 @@ class BagWriter:
             self._file, self.preset, library="wildfire_msgs_py", chunk_period_s=chunk_period_s
         )
         self.custom_data = {PRESET_KEY: self.preset.name, **(custom_data or {})}
+        # Also at the start of the file, where a repair finds it when the recorder was killed.
+        self._mcap.add_metadata("wildfire", self.custom_data)
         self._schemas: dict[str, int] = {}
         self._topics: dict[str, _Topic] = {}
         self._start_ns: int | None = None
@@ -613,7 +615,7 @@ def _chunk_totals(files: Sequence[Path]) -> tuple[str, int, int]:
     return ",".join(sorted(k for k in kinds if k)), stored, raw
 
 
-def _custom_data(path: Path) -> dict[str, str]:
+def read_custom_data(path: Path) -> dict[str, str]:
     """``custom_data`` of a bag's ``metadata.yaml`` (rosbags' reader does not expose it)."""
     information = _yaml().load((path / "metadata.yaml").read_text(encoding="utf-8"))
     custom = (information.get("rosbag2_bagfile_information") or {}).get("custom_data") or {}
@@ -651,7 +653,7 @@ def bag_info(bag_dir: str | Path, *, sizes: bool = True) -> BagInfo:
         )
         files = _mcap_files(path)
         compression, stored, raw = _chunk_totals(files)
-        custom = _custom_data(path)
+        custom = read_custom_data(path)
         count = reader.message_count
         return BagInfo(
             path=path,
@@ -689,6 +691,7 @@ __all__ = [
     "open_reader",
     "parse_offered_qos",
     "qos_summary",
+    "read_custom_data",
     "read_messages",
     "rosbags_qos",
     "type_hash",
