@@ -70,10 +70,10 @@ if BACKEND == "rclpy":
     )
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
-    if os.environ.get("WILDFIRE_EXECUTOR", "events") == "events":
-        from rclpy.experimental import EventsExecutor as NodeExecutor
-    else:
-        NodeExecutor = SingleThreadedExecutor
+    # rclpy.experimental.EventsExecutor would wake less often, but with rclpy 7.1.6 the
+    # lockstep start handshake never completes under it (the fire simulator never hears the
+    # agents' latched ready messages), so node processes keep the standard executor.
+    NodeExecutor = SingleThreadedExecutor
     from rclpy.node import Node
     from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
