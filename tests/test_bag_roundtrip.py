@@ -196,3 +196,126 @@ def test_signal_during_recording_leaves_readable_bag(
     assert scores == sorted(scores) and len(set(scores)) == len(scores)
     with AnyReader([bag], default_typestore=typestore()) as reader:
         assert reader.message_count == len(scores)
+
+
+@pytest.mark.parametrize("preset", ["none", "zstd_fast", "zstd_small"])
+def test_presets_compress_chunks_that_independent_readers_decode(
+    tmp_path: Path, preset: str
+) -> None:
+    from mcap.reader import make_reader
+    from mcap.stream_reader import StreamReader
+
+    bag = tmp_path / "run"
+    grids = [np.random.default_rng(i).random((100, 100)) < 0.1 for i in range(40)]
+    with BagWriter(bag, compression=preset) as writer:
+        writer.add_topic(
+            "/wildfire/fire_map", "nav_msgs/msg/OccupancyGrid", transient_local=True, depth=1
+        )
+        for i, grid in enumerate(grids):
+            writer.write("/wildfire/fire_map", 10 * i, serialize(codecs.fire_grid_to_msg(grid, i)))
+    mcap = next(bag.glob("*.mcap"))
+    with mcap.open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+        assert summary is not None
+        kinds = {index.compression for index in summary.chunk_indexes}
+        stream.seek(0)
+        messages = [
+            r for r in StreamReader(stream, validate_crcs=True).records if hasattr(r, "sequence")
+        ]
+    assert kinds == ({""} if preset == "none" else {"zstd"})
+    assert [m.sequence for m in messages] == list(range(1, 41))
+    info = bag_info(bag)
+    assert info.preset == preset and info.message_count == 40
+    if preset != "none":
+        assert info.compression_ratio > 5  # sparse grids: zstd must do far better than raw
+    with AnyReader([bag], default_typestore=typestore()) as reader:
+        decoded = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages()]
+    for grid, message in zip(grids, decoded, strict=True):
+        np.testing.assert_array_equal(codecs.fire_grid_from_msg(message), grid)
+
+
+def test_metadata_is_jazzy_with_type_hashes_and_offered_qos(tmp_path: Path) -> None:
+    import yaml
+    from mcap.reader import make_reader
+
+    bag = tmp_path / "run"
+    _write_sample_bag(bag)
+    information = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert information["version"] == 9 and information["ros_distro"] == "jazzy"
+    topics = {
+        t["topic_metadata"]["name"]: t["topic_metadata"]
+        for t in information["topics_with_message_count"]
+    }
+    fire = topics["/wildfire/fire_map"]
+    # The hash ROS 2 Jazzy computes for nav_msgs/msg/OccupancyGrid (rclpy reports the same).
+    expected = "RIHS01_8d348150c12913a31ee0ec170fbf25089e4745d17035792a1ba94d6f0bc0cfc7"
+    assert fire["type_description_hash"] == expected
+    assert fire["offered_qos_profiles"][0]["durability"] == "transient_local"
+    assert fire["offered_qos_profiles"][0]["depth"] == 1
+    with next(bag.glob("*.mcap")).open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    channels = {c.topic: c.metadata for c in summary.channels.values()}
+    assert channels["/wildfire/fire_map"]["topic_type_hash"] == expected
+    assert "transient_local" in channels["/wildfire/fire_map"]["offered_qos_profiles"]
+    info = bag_info(bag)
+    assert {t.name: t.type_hash for t in info.topics}["/wildfire/fire_map"] == expected
+    sizes = {t.name: t.size_bytes for t in info.topics}
+    assert sizes["/wildfire/fire_map"] > 10_000 and 0 < sizes["/uav0/state"] < 1_000
+
+
+@pytest.mark.dds
+@pytest.mark.timeout(60)
+def test_type_hash_is_the_one_rclpy_reports(ros_runtime: Any) -> None:
+    from wildfire_msgs_py.bag import type_hash
+
+    if ros_runtime.BACKEND != "rclpy":
+        pytest.skip("the DDS backend does not compute type hashes")
+    node = ros_runtime.Node("hash_check")
+    for name in ("nav_msgs/msg/OccupancyGrid", "sensor_msgs/msg/JointState", "std_msgs/msg/Header"):
+        topic = "/hash_check/" + name.split("/")[-1].lower()
+        node.create_publisher(ros_runtime.get_message(name), topic, 1)
+        (endpoint,) = node.get_publishers_info_by_topic(topic)
+        assert str(endpoint.topic_type_hash) == type_hash(name)
+    node.destroy_node()
+
+
+@pytest.mark.dds
+@pytest.mark.timeout(60)
+def test_sim_time_recorder_logs_clock_time(ros_runtime: Any, tmp_path: Path) -> None:
+    rt = ros_runtime
+    sim = rt.Node("clocked")
+    clock = sim.create_publisher(
+        rt.get_message("rosgraph_msgs/msg/Clock"), "/clock", codecs_clock_qos()
+    )
+    score = sim.create_publisher(rt.get_message("std_msgs/msg/Float64"), "/wildfire/score", 10)
+    recorder = BagRecorder(
+        tmp_path / "sim", ["/clock", "/wildfire/score"], use_sim_time=True, discovery_period=0.1
+    )
+    executor = rt.SingleThreadedExecutor()
+    executor.add_node(sim)
+    executor.add_node(recorder.node)
+    end = time.monotonic() + 3.0
+    while time.monotonic() < end:  # discovery
+        executor.spin_once(timeout_sec=0.05)
+    for tick in range(1, 6):
+        clock.publish(codecs.clock_to_msg(tick * 100_000_000))
+        for _ in range(10):  # the clock first, as the fire simulator publishes it
+            executor.spin_once(timeout_sec=0.02)
+        score.publish(codecs.score_to_msg(float(tick)))
+        end = time.monotonic() + 5.0
+        while recorder.message_count < 2 * tick and time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.05)
+    executor.shutdown()
+    recorder.close()
+    times = {
+        m.message.data: m.time_ns for m in read_messages(tmp_path / "sim", ["/wildfire/score"])
+    }
+    assert times == {float(t): t * 100_000_000 for t in range(1, 6)}
+    assert bag_info(tmp_path / "sim").time_source == "sim"
+
+
+def codecs_clock_qos() -> Any:
+    from wildfire_msgs_py.contract import CLOCK
+
+    return CLOCK.qos.profile()

@@ -181,6 +181,19 @@ class BagPlayer:
         """Spin the node for ``seconds`` (discovery)."""
         self._wait_until(time.monotonic() + seconds)
 
+    def wait_for_subscribers(self, timeout_s: float | None = None) -> bool:
+        """Spin until every played topic has a matched subscription (False on timeout).
+
+        Volatile topics reach only subscribers matched when a message is sent: a recorder
+        started next to the player must first discover the player's topics.
+        """
+        end = None if timeout_s is None else time.monotonic() + timeout_s
+        while min(self.subscription_counts().values(), default=1) < 1:
+            if end is not None and time.monotonic() >= end:
+                return False
+            self.wait(0.1)
+        return True
+
     def play(self, progress: Callable[[int], None] | None = None) -> PlayStats:
         """Play once (or in a loop); Ctrl-C ends it cleanly, the stats say so."""
         names = [t.name for t in self.topics]

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import itertools
 import shutil
+import struct
 import tempfile
 import zlib
 from dataclasses import dataclass
@@ -45,6 +46,7 @@ if TYPE_CHECKING:
 _DAMAGE = (
     McapError,
     CRCValidationError,
+    struct.error,
     zstandard.ZstdError,
     zlib.error,
     EOFError,

@@ -95,6 +95,11 @@ def add_parser(subparsers: Any) -> None:
         help="wait S seconds after creating the publishers, for subscribers to find them "
         "(default 1)",
     )
+    play.add_argument(
+        "--wait-for-subscribers",
+        action="store_true",
+        help="before playing, wait until every played topic has a subscriber (then --delay)",
+    )
     play.add_argument("--json", action="store_true", help="print a JSON summary")
     play.set_defaults(handler=run_play)
 
@@ -196,6 +201,8 @@ def run_play(args: argparse.Namespace) -> int:
         )
         stats = None
         try:
+            if args.wait_for_subscribers:
+                player.wait_for_subscribers()
             player.wait(args.delay)
             total = player.message_count
             with progress_bar("play", total, enabled=not args.json and not args.loop) as update:
