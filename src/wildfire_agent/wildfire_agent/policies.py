@@ -40,15 +40,18 @@ class RandomPolicy:
 
 
 class TorchScriptPolicy:
-    """Greedy policy of a TorchScript Q-network file."""
+    """Greedy policy of a TorchScript Q-network file, run on ``device`` (the CPU by default:
+    agent nodes and evaluation flying what they fly)."""
 
-    def __init__(self, path: str | Path, threads: int | None = None) -> None:
+    def __init__(
+        self, path: str | Path, threads: int | None = None, device: str | torch.device = "cpu"
+    ) -> None:
         path = Path(path)
         if not path.is_file():
             raise AgentConfigError(f"policy file {path}: no such file (expected a TorchScript .pt)")
         extra_files = {POLICY_CARD_FILE: ""}
         try:
-            self.module = torch.jit.load(str(path), map_location="cpu", _extra_files=extra_files)
+            self.module = torch.jit.load(str(path), map_location=device, _extra_files=extra_files)
         except (RuntimeError, ValueError) as error:
             reason = str(error).strip().splitlines()[0].split(". ")[0] if str(error).strip() else ""
             raise AgentConfigError(
@@ -65,6 +68,7 @@ class TorchScriptPolicy:
                 f"(expected approach 'obs' or 'belief', got {approach!r})"
             )
         self.path = path
+        self.device = torch.device(device)
         self.approach: str = approach
         self.module.eval()
         if threads is not None:
@@ -75,8 +79,8 @@ class TorchScriptPolicy:
         image_tensor = torch.from_numpy(np.ascontiguousarray(images, dtype=np.float32))
         state_tensor = torch.from_numpy(np.ascontiguousarray(pair_states, dtype=np.float32))
         with torch.inference_mode():
-            q = self.module(image_tensor, state_tensor)
-        return q.sum(dim=1).numpy().astype(np.float64)
+            q = self.module(image_tensor.to(self.device), state_tensor.to(self.device))
+        return q.sum(dim=1).cpu().numpy().astype(np.float64)
 
     def act(self, images: np.ndarray, pair_states: np.ndarray) -> np.ndarray:
         """Greedy actions (B,) int64."""

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Protocol
 
 import numpy as np
+import torch
 
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
@@ -120,8 +121,8 @@ class QNetworkController:
     action. Evaluation then flies bit-for-bit what the distributed system flies.
     """
 
-    def __init__(self, path: str | Path) -> None:
-        self.policy = TorchScriptPolicy(path)
+    def __init__(self, path: str | Path, device: str | torch.device = "cpu") -> None:
+        self.policy = TorchScriptPolicy(path, device=device)
         self.observation = self.policy.approach
 
     def reset(self, env: WildfireVecEnv) -> None:
@@ -149,16 +150,20 @@ def resolve_policy_path(name: str) -> Path:
     return Path(name)
 
 
-def make_controller(policy: str, rh_config: RecedingHorizonConfig | None = None) -> Controller:
+def make_controller(
+    policy: str,
+    rh_config: RecedingHorizonConfig | None = None,
+    device: str | torch.device = "cpu",
+) -> Controller:
     """Controller for a policy name (``wildfire_agent.policy_names``); ``rh_config`` sets T,
-    tau and restarts of the planners."""
+    tau and restarts of the planners, ``device`` where a Q-network runs."""
     planner = planner_config(policy, rh_config)
     if planner is not None:
         return RecedingHorizonEnvController(planner)
     if policy == "random":
         return RandomController()
     if policy in SHIPPED_POLICIES or is_policy_file(policy):
-        return QNetworkController(resolve_policy_path(policy))
+        return QNetworkController(resolve_policy_path(policy), device)
     raise AgentConfigError(f"unknown policy {policy!r}: expected {EXPECTED_POLICIES}")
 
 

@@ -36,6 +36,10 @@ Decisions beyond the paper (documented here, reported in the card):
   2-3 hour budget on this CPU is spent refining the greedy policy.
 * Episodes abandoned by an interruption are not resumed: a resumed run starts new episodes
   (their transitions up to the checkpoint are in the replay).
+* ``RunOptions.device`` (``--device``) holds the networks, the optimiser and the replay
+  mini-batches; the environments are numpy on the CPU, and the replay stays in host memory
+  (uint8 frames, copied per mini-batch). The device is not a hyperparameter: a run may resume
+  on another one (the card records the last). The exported policy is always a CPU module.
 """
 
 from __future__ import annotations
@@ -266,6 +270,8 @@ class RunOptions:
     """Train on the bag transitions only (no environment interaction)."""
     init_policy: Path | None = None
     """Start from the weights of this exported policy (fine-tuning) instead of random ones."""
+    device: str = "cpu"
+    """Torch device of the networks and mini-batches (resolved: ``cpu``, ``cuda``, ``cuda:1``)."""
 
 
 # ------------------------------------------------------------------------------- helpers
@@ -284,16 +290,23 @@ def target_iterations(config: TrainConfig) -> int:
     return max(0, (config.total_samples - config.learning_starts) // config.train_frequency)
 
 
+def model_device(model: nn.Module) -> torch.device:
+    """The device holding ``model``'s weights."""
+    return next(model.parameters()).device
+
+
 def greedy_actions(
     model: nn.Module, images: np.ndarray, states: np.ndarray, channels_last: bool = False
 ) -> np.ndarray:
     """argmax_a sum_j Q(s_j, a) for a batch: images (B, C, H, W), states (B, K, 5) -> (B,)."""
-    image_tensor = torch.from_numpy(np.ascontiguousarray(images, dtype=np.float32))
+    device = model_device(model)
+    image_tensor = torch.from_numpy(np.ascontiguousarray(images, dtype=np.float32)).to(device)
     if channels_last:
         image_tensor = image_tensor.contiguous(memory_format=torch.channels_last)
+    state_tensor = torch.from_numpy(np.ascontiguousarray(states)).to(device)
     with torch.inference_mode():
-        q = model(image_tensor, torch.from_numpy(np.ascontiguousarray(states)))
-    return q.sum(dim=1).argmax(dim=1).numpy()
+        q = model(image_tensor, state_tensor)
+    return q.sum(dim=1).argmax(dim=1).cpu().numpy()
 
 
 class GreedyController:
@@ -342,7 +355,7 @@ def td_update(
     rng: np.random.Generator,
 ) -> float:
     """One training iteration on a replay mini-batch; returns the loss."""
-    batch = replay.sample(config.batch_size, rng)
+    batch = replay.sample(config.batch_size, rng, model_device(q_network))
     images, next_images = batch.images, batch.next_images
     if config.channels_last:
         images = images.contiguous(memory_format=torch.channels_last)
@@ -526,6 +539,7 @@ def policy_card(
         "trained_from_bags": [str(p) for p in options.bag_dirs],
         "bag_transitions": bag_transitions,
         "offline": options.offline,
+        "device": options.device,
         "evaluation": {
             "protocol": "SPEC 2.7 team belief reward, greedy network, batched",
             "iteration": int(final["iteration"]),
@@ -586,11 +600,11 @@ def train(
     # --- seeding, networks, optimizer, replay (or their checkpointed state) -------------
     torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
-    q_network = build_q_network(approach, config.arch)
+    device = torch.device(options.device)
+    memory_format = torch.channels_last if config.channels_last else torch.contiguous_format
+    q_network = build_q_network(approach, config.arch).to(device, memory_format=memory_format)
     target_network = build_q_network(approach, config.arch)
-    if config.channels_last:
-        q_network = q_network.to(memory_format=torch.channels_last)
-        target_network = target_network.to(memory_format=torch.channels_last)
+    target_network = target_network.to(device, memory_format=memory_format)
     optimizer = torch.optim.Adamax(q_network.parameters(), lr=config.learning_rate)
     state = TrainState()
     codec = ImageCodec.for_approach(approach)
@@ -862,6 +876,7 @@ __all__ = [
     "greedy_actions",
     "linear_schedule",
     "load_checkpoint",
+    "model_device",
     "policy_card",
     "save_checkpoint",
     "target_iterations",

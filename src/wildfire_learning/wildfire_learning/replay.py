@@ -56,8 +56,10 @@ class ImageCodec:
         return np.rint(np.asarray(images, dtype=np.float32) * scale).clip(0, 255).astype(np.uint8)
 
     def decode(self, encoded: torch.Tensor) -> torch.Tensor:
-        """(B, C, H, W) uint8 tensor -> float32 tensor."""
-        inverse = torch.tensor([1.0 / s for s in self.scales], dtype=torch.float32)
+        """(B, C, H, W) uint8 tensor -> float32 tensor (on the device of ``encoded``)."""
+        inverse = torch.tensor(
+            [1.0 / s for s in self.scales], dtype=torch.float32, device=encoded.device
+        )
         return encoded.to(torch.float32) * inverse[:, None, None]
 
 
@@ -177,8 +179,11 @@ class ReplayBuffer:
         oldest_kept = self.frames_written - self.frame_capacity
         return self.obs_id[slots] >= oldest_kept
 
-    def sample(self, batch_size: int, rng: np.random.Generator) -> Batch:
-        """A uniform mini-batch of stored transitions whose frames are still kept."""
+    def sample(
+        self, batch_size: int, rng: np.random.Generator, device: torch.device | None = None
+    ) -> Batch:
+        """A uniform mini-batch of stored transitions whose frames are still kept, as tensors
+        on ``device`` (default CPU); images travel as uint8 and are decoded there."""
         size = len(self)
         if size == 0:
             raise LearningError("replay: cannot sample from an empty buffer")
@@ -190,16 +195,22 @@ class ReplayBuffer:
             slots[bad] = rng.integers(0, size, int(bad.sum()))
         obs = self.obs_id[slots] % self.frame_capacity
         nxt = self.next_id[slots] % self.frame_capacity
+        device = device or torch.device("cpu")
+
+        def tensor(array: np.ndarray) -> torch.Tensor:
+            # Pinned memory would speed a CUDA copy a little; not worth a CUDA-only path.
+            return torch.from_numpy(array).to(device)
+
         decode = self.codec.decode
         return Batch(
-            images=decode(torch.from_numpy(self.images[obs])),
-            states=torch.from_numpy(self.states[obs]),
-            actions=torch.from_numpy(self.actions[slots]),
-            rewards=torch.from_numpy(self.rewards[slots]),
-            terminated=torch.from_numpy(self.terminated[slots]),
-            next_images=decode(torch.from_numpy(self.images[nxt])),
-            next_states=torch.from_numpy(self.states[nxt]),
-            steps=torch.from_numpy(self.steps[slots].astype(np.float32)),
+            images=decode(tensor(self.images[obs])),
+            states=tensor(self.states[obs]),
+            actions=tensor(self.actions[slots]),
+            rewards=tensor(self.rewards[slots]),
+            terminated=tensor(self.terminated[slots]),
+            next_images=decode(tensor(self.images[nxt])),
+            next_states=tensor(self.states[nxt]),
+            steps=tensor(self.steps[slots].astype(np.float32)),
         )
 
     # ------------------------------------------------------------------ persistence

@@ -11,7 +11,7 @@ from typing import Any
 
 import torch
 
-from wildfire_bringup.cli.common import print_json
+from wildfire_bringup.cli.common import add_device_argument, print_json
 
 # name -> (module, function, what it measures); the modules import lazily so a missing
 # optional part (e.g. no trained model yet) only skips its own figures.
@@ -24,6 +24,8 @@ SUITES: dict[str, tuple[str, str, str]] = {
     "system": ("wildfire_bringup.bench.system", "bench_system", "distributed system"),
 }
 QUICK_CAPABLE = {"inference", "dds", "system"}
+DEVICE_CAPABLE = {"inference"}
+"""Suites that time networks and so take ``--device``."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -40,17 +42,22 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         help=f"run only these suites ({', '.join(SUITES)})",
     )
     parser.add_argument("--quick", action="store_true", help="shorter runs, noisier figures")
+    add_device_argument(parser, "cpu", "the inference and training figures")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from wildfire_learning.device import resolve_device
+
+    device = resolve_device(args.device)
     results: dict[str, Any] = {
         "machine": {
             "cpus": len(__import__("os").sched_getaffinity(0)),
             "python": platform.python_version(),
             "torch": torch.__version__,
             "torch_threads": torch.get_num_threads(),
+            "device": str(device),
         }
     }
     for name in args.only or list(SUITES):
@@ -68,6 +75,8 @@ def run(args: argparse.Namespace) -> int:
             kwargs = {"steps": 40}
         if args.quick and name == "env":
             kwargs = {"decisions": 100}
+        if name in DEVICE_CAPABLE:
+            kwargs["device"] = str(device)
         figures = function(**kwargs)
         figures["bench_seconds"] = time.perf_counter() - tic
         results[name] = figures

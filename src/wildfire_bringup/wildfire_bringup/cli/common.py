@@ -149,6 +149,48 @@ def add_duration_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def ray_address(text: str) -> str:
+    """argparse type: ``HOST:PORT`` (optionally ``ray://HOST:PORT``) or ``auto``."""
+    if text == "auto":
+        return text
+    host, sep, port = text.removeprefix("ray://").rpartition(":")
+    if not (sep and host and port.isdigit() and 0 < int(port) < 65536):
+        raise argparse.ArgumentTypeError(f"expected HOST:PORT or auto, got {text!r}")
+    return text
+
+
+def add_parallel_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--workers N`` / ``--ray ADDRESS`` of ``eval`` and ``report``: where episodes fly
+    (``wildfire_learning.parallel``; the results equal a serial run's)."""
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument(
+        "--workers",
+        type=positive_int,
+        default=1,
+        metavar="N",
+        help="spread the episodes over N local processes (default: 1, this process); the "
+        "results equal a serial run's bit for bit",
+    )
+    where.add_argument(
+        "--ray",
+        type=ray_address,
+        default=None,
+        metavar="ADDRESS",
+        help="run the evaluation tasks on the Ray cluster at HOST:PORT (auto: the one started "
+        "by `ray start` on this machine); same results",
+    )
+
+
+def add_device_argument(parser: argparse.ArgumentParser, default: str, what: str) -> None:
+    """``--device cpu|cuda|cuda:N|auto`` (checked against the machine when used)."""
+    parser.add_argument(
+        "--device",
+        default=default,
+        metavar="DEVICE",
+        help=f"cpu, cuda, cuda:N or auto (CUDA if present) for {what} (default: {default})",
+    )
+
+
 def scenario_settings(args: argparse.Namespace) -> dict[str, Any]:
     """``EnvConfig`` fields set by the arguments of ``add_episode_arguments`` (but the shape);
     an unset ``--max-wind`` keeps the environment's default."""

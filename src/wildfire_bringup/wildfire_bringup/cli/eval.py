@@ -6,15 +6,19 @@ import argparse
 
 from wildfire_bringup.cli.common import (
     UserError,
+    add_device_argument,
     add_episode_arguments,
+    add_parallel_arguments,
     positive_int,
     print_json,
     scenario_settings,
 )
 from wildfire_bringup.cli.progress import progress_bar
 from wildfire_learning.controllers import BUILTIN_POLICIES, make_controller, resolve_policy_path
+from wildfire_learning.device import resolve_device
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
+from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.report import Scenario
 from wildfire_sim.shapes import Shape
 
@@ -33,6 +37,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "trained or selected on)",
     )
     parser.add_argument("--episodes", type=positive_int, default=20, metavar="K")
+    add_parallel_arguments(parser)
+    # The CPU by default: the agent nodes run their networks there, and `eval` flies what
+    # they fly bit for bit (another device may break a near tie between two Q-values).
+    add_device_argument(parser, "cpu", "the Q-network")
     parser.add_argument("--png", metavar="FILE", help="draw the first episode")
     parser.add_argument(
         "--card",
@@ -60,20 +68,30 @@ def card_key(
 
 def run(args: argparse.Namespace) -> int:
     shape = Shape.parse(args.shape)
-    controller = make_controller(args.policy)
+    device = resolve_device(args.device)
+    controller = make_controller(args.policy, device=device)  # a bad name or file fails now
     if args.card and args.policy in BUILTIN_POLICIES:
         raise UserError(f"--card: policy {args.policy} has no model card (a Q-network has)")
     config = EnvConfig(shapes=(shape.value,), **scenario_settings(args)).validate()
     seeds = list(range(args.seed, args.seed + args.episodes))
-    with progress_bar(f"eval {args.policy}", config.max_decisions, enabled=not args.json) as bar:
-        summary = evaluate(
-            controller,
-            config,
-            seeds,
-            policy_name=args.policy,
-            record=bool(args.png),
-            progress=lambda done, total: bar(done),
-        )
+    if args.workers > 1 or args.ray is not None:
+        job = EvalJob(args.policy, config, tuple(seeds), bool(args.png), str(device))
+        with progress_bar(f"eval {args.policy}", len(seeds), enabled=not args.json) as bar:
+            (summary,) = evaluate_jobs(
+                [job], args.workers, args.ray, progress=lambda done, total: bar(done)
+            )
+    else:
+        with progress_bar(
+            f"eval {args.policy}", config.max_decisions, enabled=not args.json
+        ) as bar:
+            summary = evaluate(
+                controller,
+                config,
+                seeds,
+                policy_name=args.policy,
+                record=bool(args.png),
+                progress=lambda done, total: bar(done),
+            )
     if args.png:
         from wildfire_learning.plots import plot_episode
 

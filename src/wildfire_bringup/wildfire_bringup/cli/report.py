@@ -15,6 +15,7 @@ from wildfire_bringup.cli.common import (
     UserError,
     add_duration_argument,
     add_max_wind_argument,
+    add_parallel_arguments,
     non_negative_int,
     positive_int,
     print_json,
@@ -22,7 +23,8 @@ from wildfire_bringup.cli.common import (
 from wildfire_bringup.cli.progress import progress_bar
 from wildfire_learning.controllers import BUILTIN_POLICIES, make_controller, resolve_policy_path
 from wildfire_learning.env import EnvConfig
-from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
+from wildfire_learning.evaluate import TEST_SEED_BASE, EvaluationSummary, evaluate
+from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.report import (
     PAPER_SCENARIOS,
     Scenario,
@@ -84,6 +86,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--fresh", action="store_true", help="evaluate again even where a stored result matches"
     )
+    add_parallel_arguments(parser)
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
 
@@ -110,8 +113,17 @@ def collect_results(
 ) -> tuple[dict[str, dict[str, dict[str, Any]]], list[str]]:
     """Evaluation JSON of every (scenario, controller), stored or flown now; and the labels
     of those flown now."""
-    results: dict[str, dict[str, dict[str, Any]]] = {}
+    results: dict[str, dict[str, dict[str, Any]]] = {s.key: {} for s in scenarios}
     evaluated: list[str] = []
+    todo: list[tuple[Scenario, str, EnvConfig, dict[str, Any], Path, str]] = []
+
+    def show(label: str, stored: dict[str, Any], note: str) -> None:
+        if not args.json:
+            # On stderr, like the bar: stdout carries the report alone (`| head` or a
+            # redirect never interrupts the evaluations or mixes with them).
+            score = f"{stored['score_mean']:.1f} ± {stored['score_sem']:.1f}"
+            print(f"{label}: {score} ({note})", file=sys.stderr)
+
     for scenario in scenarios:
         config = replace(base, n_aircraft=scenario.aircraft, shapes=(scenario.shape,))
         for controller in controllers:
@@ -122,27 +134,46 @@ def collect_results(
             stored = None if args.fresh else load_cached(path, identity)
             label = f"{controller_label(controller)} on {scenario.title}"
             if stored is None:
-                start = time.perf_counter()
-                with progress_bar(label, config.max_decisions, enabled=not args.json) as bar:
-                    summary = evaluate(
-                        make_controller(controller),
-                        config,
-                        seeds,
-                        policy_name=controller,
-                        progress=lambda done, total, bar=bar: bar(done),
-                    )
-                stored = store(path, identity, summary.to_json())
-                evaluated.append(label)
-                note = f"evaluated in {time.perf_counter() - start:.0f} s"
+                todo.append((scenario, controller, config, identity, path, label))
             else:
-                note = f"stored in {path}"
-            if not args.json:
-                # On stderr, like the bar: stdout carries the report alone (`| head` or a
-                # redirect never interrupts the evaluations or mixes with them).
-                score = f"{stored['score_mean']:.1f} ± {stored['score_sem']:.1f}"
-                print(f"{label}: {score} ({note})", file=sys.stderr)
-            results.setdefault(scenario.key, {})[controller] = stored
-    return results, evaluated
+                show(label, stored, f"stored in {path}")
+                results[scenario.key][controller] = stored
+
+    def done(index: int, summary: EvaluationSummary, note: str) -> None:
+        scenario, controller, _, identity, path, label = todo[index]
+        stored = store(path, identity, summary.to_json())
+        evaluated.append(label)
+        show(label, stored, note)
+        results[scenario.key][controller] = stored
+
+    if args.workers > 1 or args.ray is not None:
+        jobs = [EvalJob(controller, config, tuple(seeds)) for _, controller, config, *_ in todo]
+        where = f"on Ray at {args.ray}" if args.ray else f"on {args.workers} workers"
+        episodes = len(jobs) * len(seeds)
+        with progress_bar(f"report {where}", episodes, enabled=not args.json) as bar:
+            evaluate_jobs(
+                jobs,
+                args.workers,
+                args.ray,
+                on_job_done=lambda index, summary: done(index, summary, f"evaluated {where}"),
+                progress=lambda flown, total: bar(flown),
+            )
+    else:
+        for index, (_, controller, config, _, _, label) in enumerate(todo):
+            start = time.perf_counter()
+            with progress_bar(label, config.max_decisions, enabled=not args.json) as bar:
+                summary = evaluate(
+                    make_controller(controller),
+                    config,
+                    seeds,
+                    policy_name=controller,
+                    progress=lambda flown, total, bar=bar: bar(flown),
+                )
+            done(index, summary, f"evaluated in {time.perf_counter() - start:.0f} s")
+    # In the table's order, whatever order the evaluations finished in.
+    ordered = {s.key: {c: results[s.key][c] for c in controllers} for s in scenarios}
+    evaluated.sort(key=lambda label: [t[5] for t in todo].index(label))
+    return ordered, evaluated
 
 
 def run(args: argparse.Namespace) -> int:

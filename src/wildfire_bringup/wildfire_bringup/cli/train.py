@@ -20,6 +20,7 @@ from typing import Any
 
 from wildfire_bringup.cli.common import (
     UserError,
+    add_device_argument,
     non_negative_int,
     positive_float,
     positive_int,
@@ -27,6 +28,7 @@ from wildfire_bringup.cli.common import (
     unit_interval,
 )
 from wildfire_learning.architectures import ARCHITECTURES
+from wildfire_learning.device import resolve_device
 from wildfire_learning.dqn import (
     POSITIVE_INT_FIELDS,
     RunOptions,
@@ -139,6 +141,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         metavar="SECONDS",
         help="when stderr is not a terminal (nohup), print a status line this often (default: 60)",
     )
+    add_device_argument(parser, "auto", "the networks and replay mini-batches")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
 
@@ -171,6 +174,7 @@ def build_config(args: argparse.Namespace, saved: dict[str, Any] | None) -> Trai
 
 
 def run(args: argparse.Namespace) -> int:
+    device = resolve_device(args.device)
     saved: dict[str, Any] | None = None
     if args.resume:
         if args.run_dir is None:
@@ -195,6 +199,7 @@ def run(args: argparse.Namespace) -> int:
         bag_dirs=tuple(args.from_bag or ()),
         offline=bool(args.from_bag) and not args.online,
         init_policy=args.init_from,
+        device=str(device),
     )
     if args.out is not None and not out.parent.is_dir():
         raise UserError(f"--out {out}: directory {out.parent} does not exist")
@@ -208,6 +213,7 @@ def run(args: argparse.Namespace) -> int:
     summary = {
         "approach": config.approach,
         "arch": config.arch,
+        "device": str(device),
         "out": str(result.out),
         "run_dir": str(run_dir),
         "iterations": result.state.iterations,
