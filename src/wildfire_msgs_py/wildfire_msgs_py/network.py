@@ -7,12 +7,15 @@ the first participant exists, with loopback-only settings for whichever middlewa
 * **Cyclone DDS** (our DDS backend, or rmw_cyclonedds_cpp): ``CYCLONEDDS_URI`` gets the inline
   form of ``config/cyclonedds_loopback.xml`` when it is unset or empty.
 * **Fast DDS** (the real rclpy's rmw_fastrtps_cpp): when neither ``FASTRTPS_DEFAULT_PROFILES_FILE``
-  nor ``FASTDDS_DEFAULT_PROFILES_FILE`` is set, ``FASTRTPS_DEFAULT_PROFILES_FILE`` points at
-  ``config/fastdds_loopback.xml`` (127.0.0.1 and shared memory only, unicast discovery) and
-  ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is set to ``LOCALHOST`` unless the user set it.
+  nor ``FASTDDS_DEFAULT_PROFILES_FILE`` is set, and the user asked for no wider discovery
+  (``ROS_AUTOMATIC_DISCOVERY_RANGE`` unset or ``LOCALHOST``, ``ROS_STATIC_PEERS`` unset),
+  ``FASTRTPS_DEFAULT_PROFILES_FILE`` points at ``config/fastdds_loopback.xml`` (127.0.0.1 and
+  shared memory only, unicast discovery) and ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is ``LOCALHOST``.
 
 A variable the user set is never touched, so several hosts are an explicit opt-in (see
-``docs/deployment.md``). The runtime calls this when it is imported; the launcher calls it on
+``docs/deployment.md``). ``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`` or ``ROS_STATIC_PEERS`` is such
+an opt-in for Fast DDS: the loopback profile would whitelist 127.0.0.1 only and so silently
+defeat it. The runtime calls this when it is imported; the launcher calls it on
 the environment of every child it starts.
 """
 
@@ -25,7 +28,7 @@ from pathlib import Path
 #: Inline form of ``config/cyclonedds_loopback.xml`` (Cyclone accepts XML in CYCLONEDDS_URI).
 CYCLONEDDS_LOOPBACK_XML = (
     '<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="any">'
-    "<General><Interfaces><NetworkInterface address=\"127.0.0.1\"/></Interfaces>"
+    '<General><Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>'
     "<AllowMulticast>false</AllowMulticast></General>"
     "<Discovery><ParticipantIndex>auto</ParticipantIndex>"
     "<MaxAutoParticipantIndex>40</MaxAutoParticipantIndex>"
@@ -50,9 +53,16 @@ def apply_local_network_defaults(
     applied: dict[str, str] = {}
     if not env.get("CYCLONEDDS_URI", "").strip():
         applied["CYCLONEDDS_URI"] = CYCLONEDDS_LOOPBACK_XML
-    if not any(env.get(name, "").strip() for name in FASTDDS_PROFILE_VARIABLES):
+    discovery_range = env.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "").strip()
+    # SUBNET / SYSTEM_DEFAULT / OFF, or static peers, are the user's own discovery choice; the
+    # loopback profile (UDP on 127.0.0.1 only) would make it unreachable without a word.
+    wider_discovery = discovery_range.upper() not in ("", "LOCALHOST") or bool(
+        env.get("ROS_STATIC_PEERS", "").strip()
+    )
+    user_profile = any(env.get(name, "").strip() for name in FASTDDS_PROFILE_VARIABLES)
+    if not user_profile and not wider_discovery:
         applied["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(FASTDDS_LOOPBACK_PROFILE)
-        if not env.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "").strip():
+        if not discovery_range:
             applied["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     env.update(applied)
     return applied
