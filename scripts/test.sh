@@ -1,7 +1,16 @@
 #!/usr/bin/env bash
-# Set up .venv if needed, then run the whole test suite (slow tests included).
-# Extra arguments go to pytest, e.g. scripts/test.sh -m "not slow" -x
+# Set up .venv if needed, then run the whole test suite (slow tests included), then the
+# ROS-facing tests (marker `dds`) a second time on the other runtime backend: once on real
+# rclpy (Fast DDS) where its wheels are installed, once on our Cyclone DDS layer.
+# Extra arguments go to both pytest runs, e.g. scripts/test.sh -m "not slow" -x
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-exec .venv/bin/python -m pytest "$@"
+if .venv/bin/python -c 'import rclpy' 2>/dev/null; then
+  WILDFIRE_ROS_BACKEND=rclpy .venv/bin/python -m pytest "$@"
+  echo "test: the ROS-facing tests again, on the Cyclone DDS layer (WILDFIRE_ROS_BACKEND=dds)"
+  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest -m dds "$@"
+else
+  echo "test: rclpy does not import here: every test runs on the Cyclone DDS layer"
+  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest "$@"
+fi

@@ -13,6 +13,9 @@ from wildfire_msgs_py.errors import MessageFieldError
 from wildfire_msgs_py.introspection import message_to_yaml, set_message_fields
 from wildfire_msgs_py.runtime import deserialize_message, get_message, serialize_message
 
+# The codecs build messages of the active backend (rclpy's rosidl classes or ours).
+pytestmark = pytest.mark.dds
+
 
 def _wire(msg: object) -> object:
     """The message as a subscriber of the active backend gets it: serialized and deserialized."""

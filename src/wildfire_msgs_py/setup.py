@@ -6,7 +6,9 @@ setup(
     name=package_name,
     version="0.1.0",
     packages=find_packages(exclude=["test"]),
-    package_data={package_name: ["py.typed"]},
+    # data/fastdds_loopback.xml is config/fastdds_loopback.xml (a symlink in the source tree,
+    # copied into wheels and colcon installs): the runtime applies it by default.
+    package_data={package_name: ["py.typed", "data/*.xml"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),

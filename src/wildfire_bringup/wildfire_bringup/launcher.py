@@ -7,10 +7,12 @@ process spins the :class:`RunMonitorNode` and, with a record directory, the rosb
 
 Every child gets the run's ``ROS_DOMAIN_ID`` (a run-unique id unless the user set one) and
 the loopback-only settings of both DDS implementations (unless the user set their own, see
-:mod:`wildfire_msgs_py.network`), so nothing leaves the machine. A child's output goes to ``<log dir>/<node>.log``; when a child dies
-the launcher names it, its exit status and the last line it wrote, finalizes the recording
-and stops the rest — or, with ``respawn`` in real time, starts it again (an agent continues
-from its last published state, the aggregator recovers the belief from the agents).
+:mod:`wildfire_msgs_py.network`), so nothing leaves the machine. A child's output goes to
+``<log dir>/<node>.log``; a child is stopped with the launcher even when the launcher is
+killed. When a child dies the launcher names it, its exit status and the last line it
+wrote, finalizes the recording and stops the rest — or, with ``respawn`` in real time,
+starts it again (an agent continues from its last published state, the aggregator recovers
+the belief from the agents).
 """
 
 from __future__ import annotations
@@ -62,6 +64,9 @@ class RunSpec:
     params_file: Path | None = None
     """A ``ros__parameters`` file given to every node (before the launcher's own values)."""
     extra_env: dict[str, str] = field(default_factory=dict)
+    agent_backend: str | None = None
+    """Runtime backend of the agent nodes (``rclpy``/``dds``) when it differs from the rest:
+    a mixed system, the two backends talking over the wire."""
 
     @property
     def mode(self) -> str:
@@ -77,6 +82,21 @@ def child_environment(extra: dict[str, str] | None = None) -> dict[str, str]:
     env["PYTHONUNBUFFERED"] = "1"
     env.update(extra or {})
     return env
+
+
+def _stop_with_parent() -> None:
+    """In the child, before exec: SIGTERM it when the launcher dies, even by SIGKILL.
+
+    A node of a launcher that was killed (or a test runner that timed out) would otherwise
+    spin on with nobody to stop it. Linux only (``prctl(PR_SET_PDEATHSIG)``); elsewhere the
+    launcher's own clean-up is all there is.
+    """
+    if sys.platform != "linux":
+        return
+    import ctypes
+
+    pr_set_pdeathsig = 1
+    ctypes.CDLL("libc.so.6", use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM)
 
 
 def _param_args(params: dict[str, Any]) -> list[str]:
@@ -183,13 +203,17 @@ class Launcher:
 
     def start_node(self, name: str, command: list[str]) -> None:
         log = open(self.log_dir / f"{name}.log", "ab")  # noqa: SIM115 (kept by the child)
+        env = self.env
+        if self.spec.agent_backend is not None and name.startswith("uav"):
+            env = {**env, "WILDFIRE_ROS_BACKEND": self.spec.agent_backend}
         self.processes[name] = subprocess.Popen(
             command,
-            env=self.env,
+            env=env,
             stdin=subprocess.DEVNULL,
             stdout=log,
             stderr=subprocess.STDOUT,
             start_new_session=True,  # Ctrl-C reaches the launcher only: it stops the children
+            preexec_fn=_stop_with_parent,
         )
         log.close()
 
@@ -237,6 +261,8 @@ class Launcher:
 
         os.environ["ROS_DOMAIN_ID"] = self.env["ROS_DOMAIN_ID"]
         apply_local_network_defaults()
+        # The children run on the launcher's backend (unless the spec mixes them).
+        self.env.setdefault("WILDFIRE_ROS_BACKEND", runtime.BACKEND)
         runtime.rclpy.init(args=[])
         start = time.monotonic()
         try:

@@ -49,9 +49,7 @@ def endpoint_infos(node: Any, topic: str) -> list[EndpointInfo]:
         for info in found:
             qos = info.qos_profile
             history = (
-                "KEEP_ALL"
-                if qos.history == HistoryPolicy.KEEP_ALL
-                else f"KEEP_LAST ({qos.depth})"
+                "KEEP_ALL" if qos.history == HistoryPolicy.KEEP_ALL else f"KEEP_LAST ({qos.depth})"
             )
             name = info.node_name
             if name and name != "_NODE_NAME_UNKNOWN_":

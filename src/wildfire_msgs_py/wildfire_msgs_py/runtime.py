@@ -60,8 +60,8 @@ BACKEND = _choose_backend()
 if BACKEND == "rclpy":
     import rclpy
     from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-    from rclpy.duration import Duration
     from rclpy._rclpy_pybind11 import RCLError
+    from rclpy.duration import Duration
     from rclpy.exceptions import (
         InvalidParameterTypeException,
         InvalidParameterValueException,

@@ -63,6 +63,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--params-file", type=Path, metavar="YAML", help="ros__parameters file passed to every node"
     )
+    parser.add_argument(
+        "--agent-backend",
+        choices=("rclpy", "dds"),
+        help="run the agent nodes on this ROS runtime and the rest on the default one "
+        "(a mixed system: real rclpy and our Cyclone DDS layer on one wire)",
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.add_argument("--png", type=Path, metavar="FILE", help="draw fire, belief and paths")
     parser.add_argument("--log-dir", type=Path, metavar="DIR", help="node logs (default: temp)")
@@ -142,6 +148,7 @@ def build_spec(args: argparse.Namespace) -> Any:
         respawn=args.respawn,
         log_dir=args.log_dir,
         params_file=check_params_file(args.params_file) if args.params_file else None,
+        agent_backend=args.agent_backend,
     )
 
 
@@ -158,7 +165,11 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         if len(trajectory) > 1
         else np.zeros(spec.n_aircraft)
     )
+    from wildfire_msgs_py.runtime import BACKEND, rmw_implementation
+
     result: dict[str, Any] = {
+        "backend": BACKEND,
+        "rmw": rmw_implementation(),
         "policy": spec.policy,
         "aircraft": spec.n_aircraft,
         "shape": spec.shape,

@@ -135,7 +135,7 @@ def run_list(args: argparse.Namespace) -> int:
 def run_echo(args: argparse.Namespace) -> int:
     """``topic echo``."""
     from wildfire_msgs_py.introspection import message_to_yaml
-    from wildfire_msgs_py.runtime import Duration, get_message, rclpy
+    from wildfire_msgs_py.runtime import get_message, rclpy
 
     topic = _absolute(args.topic)
     msg_type = get_message(args.type) if args.type else None  # bad type: fail before DDS

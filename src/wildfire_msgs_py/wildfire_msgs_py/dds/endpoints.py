@@ -6,9 +6,9 @@ from typing import TYPE_CHECKING, Any
 
 from cyclonedds._clayer import ddspy_take
 from cyclonedds.core import DDSException, InstanceState, ReadCondition, SampleState, ViewState
-from cyclonedds.util import duration
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
+from cyclonedds.util import duration
 
 from wildfire_msgs_py.dds.qos import QoSProfile, ReliabilityPolicy, to_cyclone
 
