@@ -290,3 +290,53 @@ def test_bag_recorded_by_wildfire_run_rebuilds_environment_transitions(tmp_path:
             np.testing.assert_array_equal(sequence.images, expected.images[:, k])
             np.testing.assert_array_equal(sequence.states, expected.states[:, k])
             np.testing.assert_array_equal(sequence.rewards, expected.rewards[:, k])
+
+
+@pytest.mark.dds
+@pytest.mark.slow
+@pytest.mark.timeout(900)
+def test_belief_lockstep_recording_is_compact_and_rebuilds_every_transition(
+    tmp_path: Path,
+) -> None:
+    """SPEC 4 / issue 13: a 60 s 2-aircraft belief lockstep bag, at most 50 KB per sim second."""
+    from mcap.reader import make_reader
+    from rosbags.highlevel import AnyReader
+
+    from wildfire_msgs_py.bag import BULKY_TOPICS, bag_info
+    from wildfire_msgs_py.dds.types import typestore
+
+    bag = tmp_path / "belief"
+    done = subprocess.run(
+        [
+            *(WILDFIRE, "run", "--aircraft", "2", "--policy", "belief", "--seed", "7"),
+            *("--duration", "60", "--fast", "--record", str(bag), "--json"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=880,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    size = sum(f.stat().st_size for f in bag.iterdir())
+    assert size <= 50_000 * 60, f"{size / 60:.0f} bytes per simulated second"
+    info = bag_info(bag)
+    assert info.compression == "zstd" and info.time_source == "sim"
+    assert not {t.name for t in info.topics} & set(BULKY_TOPICS)
+    # Independent readers decode every message.
+    with next(bag.glob("*.mcap")).open("rb") as stream:
+        assert sum(1 for _ in make_reader(stream).iter_messages()) == info.message_count
+    with AnyReader([bag], default_typestore=typestore()) as reader:
+        for connection, _, raw in reader.messages():
+            reader.deserialize(raw, connection.msgtype)
+    for approach in ("obs", "belief"):
+        config = EnvConfig(
+            observation=approach, reward=approach, shapes=("circular",), max_duration_s=60.0
+        )
+        sequences = transitions_from_bags([bag], approach, config)
+        actions = np.stack([s.actions for s in sequences], axis=1)
+        assert actions.shape == (600, 2)
+        expected = _replay_in_env(config, 7, actions)
+        for k, sequence in enumerate(sequences):
+            np.testing.assert_array_equal(sequence.images, expected.images[:, k])
+            np.testing.assert_array_equal(sequence.states, expected.states[:, k])
+            np.testing.assert_array_equal(sequence.rewards, expected.rewards[:, k])

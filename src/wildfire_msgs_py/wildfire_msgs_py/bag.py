@@ -181,7 +181,7 @@ def parse_offered_qos(text: str) -> list[QosSummary]:
             for p in profiles
             if isinstance(p, dict)
         ]
-    except Exception:
+    except Exception:  # foreign metadata: a bag without QoS rather than no bag
         return []
 
 
@@ -189,7 +189,7 @@ def type_hash(type_name: str) -> str:
     """RIHS01 hash of a Jazzy type (as ``ros2 topic info -v`` shows it), or empty."""
     try:
         return typestore().hash_rihs01(normalize_type_name(type_name))
-    except Exception:
+    except Exception:  # a type the store cannot describe: rosbag2 writes "" too
         return ""
 
 
@@ -672,7 +672,7 @@ def bag_info(bag_dir: str | Path, *, sizes: bool = True) -> BagInfo:
         )
     except BagError:
         raise
-    except Exception as error:
+    except Exception as error:  # the mcap summary of a damaged file, whatever it raises
         raise BagError(f"bag {path}: unreadable or corrupt ({error})") from None
     finally:
         reader.close()
