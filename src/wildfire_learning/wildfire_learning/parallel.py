@@ -26,10 +26,13 @@ first), so the slow ones do not end up alone at the end of the run.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
+import os
 import socket
+import sys
 import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,7 +45,8 @@ from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import EvaluationSummary, evaluate
 
 RAY_CONNECT_TIMEOUT_S = 10.0
-"""How long to wait for a Ray address to answer before giving up (one line, exit 2)."""
+"""How long to wait for a Ray address to answer (TCP, then Ray's own handshake) before giving
+up with one line and exit status 2."""
 
 
 @dataclass(frozen=True)
@@ -211,8 +215,26 @@ def _probe(address: str) -> None:
         ) from None
 
 
+@contextlib.contextmanager
+def _stderr_silenced() -> Iterator[None]:
+    """File descriptor 2 sent to /dev/null for the block (C++ libraries write there)."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
 def connect_ray(address: str) -> Any:
     """The ``ray`` module, connected to the cluster at ``address`` (or ``auto``)."""
+    # Ray's default for a driver that cannot connect is ~20 retries a second apart: bound the
+    # wait (still ample for a live cluster; a user's own setting wins).
+    os.environ.setdefault("RAY_gcs_server_port_wait_time_s", str(int(RAY_CONNECT_TIMEOUT_S)))
     try:
         import ray
     except ModuleNotFoundError:
@@ -223,7 +245,10 @@ def connect_ray(address: str) -> Any:
         _probe(address)
     if not ray.is_initialized():
         try:
-            ray.init(address=address, logging_level="ERROR", log_to_driver=False)
+            # Each failed retry logs a warning from C++ straight to file descriptor 2, before
+            # Ray's log level applies: the user gets our one line instead.
+            with _stderr_silenced():
+                ray.init(address=address, logging_level="ERROR", log_to_driver=False)
         except (ConnectionError, RuntimeError, ValueError) as error:
             first = str(error).strip().splitlines()[0] if str(error).strip() else "no answer"
             raise LearningError(f"--ray {address}: cannot connect ({first})") from None
