@@ -27,6 +27,7 @@ first), so the slow ones do not end up alone at the end of the run.
 from __future__ import annotations
 
 import contextlib
+import logging
 import multiprocessing
 import os
 import socket
@@ -248,7 +249,7 @@ def connect_ray(address: str) -> Any:
             # Each failed retry logs a warning from C++ straight to file descriptor 2, before
             # Ray's log level applies: the user gets our one line instead.
             with _stderr_silenced():
-                ray.init(address=address, logging_level="ERROR", log_to_driver=False)
+                ray.init(address=address, logging_level=logging.ERROR, log_to_driver=False)
         except (ConnectionError, RuntimeError, ValueError) as error:
             first = str(error).strip().splitlines()[0] if str(error).strip() else "no answer"
             raise LearningError(f"--ray {address}: cannot connect ({first})") from None

@@ -167,7 +167,7 @@ def collect_results(
                     config,
                     seeds,
                     policy_name=controller,
-                    progress=lambda flown, total, bar=bar: bar(flown),
+                    progress=lambda flown, total: bar(flown),
                 )
             done(index, summary, f"evaluated in {time.perf_counter() - start:.0f} s")
     # In the table's order, whatever order the evaluations finished in.
