@@ -20,6 +20,26 @@ from wildfire_msgs_py.errors import BagError
 from wildfire_msgs_py.runtime import serialize_message as serialize
 
 
+def complete_chunk_messages(mcap: Path) -> list[Any]:
+    """Messages of the chunks of a (growing or truncated) file that the reference reader
+    decodes whole, CRC checked; stops at the first partial record."""
+    from mcap.records import Chunk
+    from mcap.stream_reader import StreamReader, breakup_chunk
+
+    messages = []
+    with mcap.open("rb") as stream:
+        records = StreamReader(stream, validate_crcs=True, emit_chunks=True).records
+        while True:
+            try:
+                record = next(records)
+                inner = (
+                    breakup_chunk(record, validate_crc=True) if isinstance(record, Chunk) else []
+                )
+            except Exception:  # the partial end, whatever it raises
+                return messages
+            messages += [r for r in inner if hasattr(r, "sequence")]
+
+
 def _write_sample_bag(path: Path) -> tuple[np.ndarray, list[np.ndarray]]:
     grid = np.random.default_rng(7).random((100, 100)) < 0.25
     states = [np.array([i * 10.0, 5.0, 0.25 * i, -0.1]) for i in range(4)]
@@ -156,7 +176,7 @@ rclpy.shutdown()
 
 
 @pytest.mark.dds
-@pytest.mark.timeout(90)
+@pytest.mark.timeout(180)
 @pytest.mark.parametrize("stop_signal", [signal.SIGINT, signal.SIGTERM])
 def test_signal_during_recording_leaves_readable_bag(
     tmp_path: Path, dds_env: dict[str, str], stop_signal: signal.Signals
@@ -178,10 +198,13 @@ def test_signal_during_recording_leaves_readable_bag(
             # must still stop on it (CI once ran the suite so, and the recorder hung).
             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
         )
-        end = time.monotonic() + 30
-        while time.monotonic() < end and not list(bag.glob("*.mcap")) and recorder.poll() is None:
-            time.sleep(0.1)
-        time.sleep(2.0)  # record for a while
+        # Record for a while: until chunks (closed every second) hold 20 messages.
+        end = time.monotonic() + 90
+        while time.monotonic() < end and recorder.poll() is None:
+            files = list(bag.glob("*.mcap"))
+            if files and len(complete_chunk_messages(files[0])) >= 20:
+                break
+            time.sleep(0.2)
         recorder.send_signal(stop_signal)
         _, err = recorder.communicate(timeout=30)
     finally:

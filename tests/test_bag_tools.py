@@ -13,9 +13,8 @@ from typing import Any
 
 import numpy as np
 import pytest
-from mcap.records import Chunk
-from mcap.stream_reader import StreamReader, breakup_chunk
 
+from test_bag_roundtrip import complete_chunk_messages
 from wildfire_msgs_py import codecs, contract
 from wildfire_msgs_py.bag import BagWriter, bag_info, read_messages
 from wildfire_msgs_py.bag_repair import reindex
@@ -37,22 +36,6 @@ def _one_line_error(done: Any, *fragments: str) -> None:
     assert done.stderr.strip().count("\n") == 0 and "Traceback" not in done.stderr
     for fragment in fragments:
         assert fragment in done.stderr
-
-
-def _complete_chunk_messages(mcap: Path) -> list[Any]:
-    """Messages of the chunks of a (truncated) file that the reference reader decodes whole."""
-    messages = []
-    with mcap.open("rb") as stream:
-        records = StreamReader(stream, validate_crcs=True, emit_chunks=True).records
-        while True:
-            try:
-                record = next(records)
-                inner = (
-                    breakup_chunk(record, validate_crc=True) if isinstance(record, Chunk) else []
-                )
-            except Exception:
-                return messages
-            messages += [r for r in inner if hasattr(r, "sequence")]
 
 
 def _write_lockstep_bag(path: Path, ticks: int = 30) -> None:
@@ -94,7 +77,7 @@ def test_reindex_recovers_every_complete_chunk(tmp_path: Path) -> None:
     writer._file.close()
     data = writer.mcap_path.read_bytes()
     writer.mcap_path.write_bytes(data[: len(data) - 1000])
-    expected = _complete_chunk_messages(writer.mcap_path)
+    expected = complete_chunk_messages(writer.mcap_path)
     assert 0 < len(expected) < 400
 
     with pytest.raises(BagError, match=r"no metadata\.yaml next to killed_0\.mcap.*reindex"):
@@ -185,7 +168,7 @@ def test_sigkill_during_recording_loses_only_the_open_chunk(
         end = time.monotonic() + 60
         # Chunks close every second: wait until three are on disk, then kill mid-recording.
         while time.monotonic() < end and recorder.poll() is None:
-            if mcap.is_file() and len(_complete_chunk_messages(mcap)) > 0:
+            if mcap.is_file() and len(complete_chunk_messages(mcap)) > 0:
                 time.sleep(3.0)
                 break
             time.sleep(0.2)
@@ -198,7 +181,7 @@ def test_sigkill_during_recording_loses_only_the_open_chunk(
                 process.kill()
                 process.wait()
     assert not (bag / "metadata.yaml").exists()
-    flushed = _complete_chunk_messages(mcap)
+    flushed = complete_chunk_messages(mcap)
     assert len(flushed) >= 100  # about 3 s at 100 Hz were in closed chunks
 
     _one_line_error(_wildfire("bag", "info", str(bag), env=dds_env), "killed_0.mcap", "reindex")

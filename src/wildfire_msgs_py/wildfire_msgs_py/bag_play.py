@@ -16,7 +16,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from wildfire_msgs_py.bag import QosSummary, open_reader, qos_summary, read_messages
+from wildfire_msgs_py.bag import (
+    QosSummary,
+    bag_info,
+    open_reader,
+    qos_summary,
+    read_messages,
+)
 from wildfire_msgs_py.contract import spec_for
 from wildfire_msgs_py.errors import BagError
 
@@ -111,6 +117,8 @@ class BagPlayer:
             raise BagError(f"--start-offset {start_offset_s}: expected seconds >= 0")
         self.bag = Path(bag_dir)
         self.topics = bag_topics(self.bag, topics)
+        # Offsets and pacing count from the start of the bag, whichever topics are played.
+        self.start_ns = bag_info(self.bag, sizes=False).start_ns
         self.rate = rate
         self.start_offset_ns = int(start_offset_s * 1e9)
         self.loop = loop
@@ -200,21 +208,19 @@ class BagPlayer:
         try:
             while True:
                 start_wall = time.monotonic()
-                first_ns: int | None = None
+                played = self.stats.published
                 for record in read_messages(self.bag, names, raw=True):
-                    if first_ns is None:
-                        first_ns = record.time_ns
-                    offset = record.time_ns - first_ns
+                    offset = record.time_ns - self.start_ns
                     if offset < self.start_offset_ns:
                         continue
                     due = start_wall + (offset - self.start_offset_ns) / 1e9 / self.rate
                     self._wait_until(due)
-                    self._publish(record.topic, record.message)
+                    self._publish(record.topic, bytes(record.message))
                     self.stats.published += 1
                     if progress is not None:
                         progress(self.stats.published)
                 self.stats.loops += 1
-                if not self.loop or first_ns is None:
+                if not self.loop or self.stats.published == played:
                     break
         except KeyboardInterrupt:
             self.stats.interrupted = True
