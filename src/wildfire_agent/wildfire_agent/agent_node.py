@@ -67,6 +67,8 @@ from wildfire_msgs_py.system_codecs import (
 from wildfire_sim.episode import DECISION_PERIOD_NS, fire_step_tick
 
 PERIOD_S = DECISION_PERIOD_NS / 1e9
+DEADLINE_EVERY_DECISIONS = 10
+"""Deadline statistics go out at 1 Hz: every message costs each node a publish."""
 PARAMETERS = (
     ParamSpec("aircraft", 0, "index k of this aircraft (namespace /uavK)", 0, 63),
     ParamSpec("n_aircraft", 2, "aircraft in the team", 1, 64),
@@ -257,8 +259,10 @@ class AgentNode(Node):
             return
         self.running = True
         self.status_tick = max(self.status_tick, status.tick)
-        if status.final:
+        if status.final and self.final_tick is None:
             self.final_tick = status.tick
+            if self.mode == "realtime":
+                self.publish_deadline(0, force=True)
         self.advance()
 
     def peer_state_callback(self, j: int, msg: Any) -> None:
@@ -334,6 +338,7 @@ class AgentNode(Node):
                 self.visited_tick = tick
             if self.final_tick is not None and tick >= self.final_tick:
                 self.decided_tick = tick
+                self.publish_deadline(tick, force=True)
                 self.ack(tick)
                 return
             team = self.team_state(stamp=tick * DECISION_PERIOD_NS)
@@ -388,7 +393,10 @@ class AgentNode(Node):
         self.bank_pub.publish(bank_cmd_to_msg(float(self.state.bank_rad[0])))
         self.publish_state(tick)
 
-    def publish_deadline(self, tick: int) -> None:
+    def publish_deadline(self, tick: int, force: bool = False) -> None:
+        """Deadline statistics once a second of flight (as diagnostics go), and at the end."""
+        if not force and self.stats.decisions % DEADLINE_EVERY_DECISIONS:
+            return
         stats = self.stats.as_dict()
         level = "WARN" if stats["missed"] else "OK"
         self.deadline_pub.publish(deadline_to_msg(stats, self.k, self.now_stamp(tick), level=level))
