@@ -10,13 +10,24 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 
 from ament_index_python.packages import get_package_share_directory
-from launch.actions import DeclareLaunchArgument, OpaqueFunction
-from launch.substitutions import LaunchConfiguration
-from launch_ros.actions import Node
 
-from launch import LaunchDescription
+try:
+    from launch.actions import DeclareLaunchArgument, OpaqueFunction
+    from launch.substitutions import LaunchConfiguration
+    from launch_ros.actions import Node
+
+    from launch import LaunchDescription
+except ImportError:
+    # The pip wheels of ROS 2 Jazzy (rclpy, common_interfaces) carry no launch system.
+    print(
+        "wildfire_launch.py: needs ROS 2 launch (a full ROS 2 Jazzy install, `ros2 launch`); "
+        "without it, start the system with `wildfire run`",
+        file=sys.stderr,
+    )
+    raise SystemExit(2) from None
 
 
 def _nodes(context, *_args, **_kwargs):
