@@ -262,3 +262,15 @@ def test_play_is_heard_message_by_message_by_a_recorder(
             assert got[topic] == payloads, topic
     info = {t.name: t for t in bag_info(heard).topics}
     assert info[contract.FIRE_MAP.name].offered_qos[0].transient_local
+
+
+def test_playback_qos_follows_the_recorded_offers() -> None:
+    from wildfire_msgs_py.bag import QosSummary
+    from wildfire_msgs_py.bag_play import VOLATILE_MIN_DEPTH, playback_qos
+
+    latched = QosSummary(reliable=True, transient_local=True, depth=1)
+    assert playback_qos([latched], "/wildfire/fire_map") == latched  # stays latched, depth 1
+    mixed = [latched, QosSummary(reliable=False, transient_local=False, depth=5)]
+    assert playback_qos(mixed, "/x") == QosSummary(False, False, VOLATILE_MIN_DEPTH)
+    assert playback_qos([], "/wildfire/belief") == QosSummary(True, True, 1)  # the contract's
+    assert playback_qos([], "/unknown") == QosSummary(True, False, 10)

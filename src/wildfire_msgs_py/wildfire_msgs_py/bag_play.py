@@ -30,6 +30,10 @@ if TYPE_CHECKING:
     from collections.abc import Callable, Iterable
 
 
+#: Smallest history of a played volatile topic (see :func:`playback_qos`).
+VOLATILE_MIN_DEPTH = 100
+
+
 @dataclass(frozen=True)
 class PlayTopic:
     """One topic to play."""
@@ -44,7 +48,11 @@ def playback_qos(offered: Iterable[QosSummary], topic: str) -> QosSummary:
     """One publisher QoS from the recorded offers (rosbag2's rule: the weakest common one).
 
     Reliable and transient-local only when every recorded publisher offered it, the deepest
-    history offered; without recorded QoS, the contract's, else reliable/volatile/10.
+    history offered; without recorded QoS, the contract's, else reliable/volatile/10. Volatile
+    topics get at least :data:`VOLATILE_MIN_DEPTH`: a reliable writer with a history of 1
+    (``/clock``) drops unacknowledged samples when played faster than a subscriber takes
+    them, and depth does not change matching. Latched topics keep their depth, so a late
+    subscriber still gets the latest map only.
     """
     profiles = list(offered)
     if not profiles:
@@ -52,10 +60,12 @@ def playback_qos(offered: Iterable[QosSummary], topic: str) -> QosSummary:
         if spec is None:
             return QosSummary(True, False, 10)
         return QosSummary(spec.qos.reliable, spec.qos.transient_local, spec.qos.depth)
+    latched = all(p.transient_local for p in profiles)
+    depth = max(p.depth for p in profiles)
     return QosSummary(
         all(p.reliable for p in profiles),
-        all(p.transient_local for p in profiles),
-        max(max(p.depth for p in profiles), 1),
+        latched,
+        max(depth, 1) if latched else max(depth, VOLATILE_MIN_DEPTH),
     )
 
 
@@ -241,4 +251,11 @@ class BagPlayer:
             self.node.destroy_node()
 
 
-__all__ = ["BagPlayer", "PlayStats", "PlayTopic", "bag_topics", "playback_qos"]
+__all__ = [
+    "VOLATILE_MIN_DEPTH",
+    "BagPlayer",
+    "PlayStats",
+    "PlayTopic",
+    "bag_topics",
+    "playback_qos",
+]
