@@ -198,6 +198,8 @@ class Launcher:
         # Wall time from the first tick to the end of the episode: the speed of the running
         # system, without process start-up (imports, DDS discovery) and shut-down.
         self.flight_wall_s = 0.0
+        self.flight_cpu_s = float("nan")
+        """CPU time the node processes spent over the same span (Linux; NaN elsewhere)."""
 
     # --- processes ----------------------------------------------------------------------------
 
@@ -236,6 +238,18 @@ class Launcher:
                 self.start_node(name, node_commands(self.spec, states)[name])
                 continue
             raise NodeFailure(f"node {name} died ({how}): {why}")
+
+    def children_cpu_s(self) -> float:
+        """User and system CPU seconds of the running node processes (``/proc``, Linux)."""
+        ticks_per_s = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+        total = 0.0
+        for process in self.processes.values():
+            try:
+                fields = Path(f"/proc/{process.pid}/stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                return float("nan")
+            total += (int(fields[11]) + int(fields[12])) / ticks_per_s  # utime, stime
+        return total
 
     def stop_children(self, timeout_s: float = 5.0) -> None:
         """SIGINT every child, then SIGKILL what is left after ``timeout_s``."""
@@ -282,12 +296,14 @@ class Launcher:
             limit = timeout_s or (60.0 + 20.0 * self.spec.duration_s)
             last_check = 0.0
             first_tick: float | None = None
+            first_tick_cpu = float("nan")
             while not self.monitor.complete:
                 self.executor.spin_once(timeout_sec=0.05)
                 now = time.monotonic()
                 status = self.monitor.status
                 if first_tick is None and status is not None and status.tick >= 1:
                     first_tick = now
+                    first_tick_cpu = self.children_cpu_s()
                 if now - last_check > 0.2:
                     last_check = now
                     self.check_children()
@@ -297,6 +313,7 @@ class Launcher:
                     raise NodeFailure(f"the episode did not end within {limit:.0f} s of wall time")
             if first_tick is not None:
                 self.flight_wall_s = time.monotonic() - first_tick
+                self.flight_cpu_s = self.children_cpu_s() - first_tick_cpu
             # The last belief, score and deadline messages may still be in flight.
             end = time.monotonic() + 0.5
             while time.monotonic() < end:
