@@ -18,6 +18,14 @@ from wildfire_msgs_py.dds.types import (
     typestore,
 )
 from wildfire_msgs_py.errors import UnknownMessageTypeError, WildfireRosError
+from wildfire_msgs_py.runtime import BACKEND
+
+# The codecs build messages of the active backend: these tests of our layer's serializer run
+# in the DDS pass of scripts/test.sh (the rclpy pass checks rclpy's bytes in test_msgs_codecs).
+pytestmark = [
+    pytest.mark.dds,
+    pytest.mark.skipif(BACKEND != "dds", reason="tests the Cyclone DDS layer's serializer"),
+]
 
 EXTRA_TYPES = [
     "std_msgs/msg/Header",
