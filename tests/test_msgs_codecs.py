@@ -118,9 +118,11 @@ def test_scalar_clock_time_deadline_codecs() -> None:
     assert codecs.time_from_msg(codecs.time_to_msg(ns)) == ns
     assert codecs.seconds_from_msg(codecs.time_to_msg(1_500_000_000)) == 1.5
     stats = {"decisions": 120, "misses": 2, "worst_ms": 7.25}
-    msg = _wire(codecs.deadline_to_msg(stats, 4, ns, level="WARN"))
-    assert msg.status[0].name == "uav4/deadline" and msg.status[0].level == b"\x01"
-    assert codecs.deadline_from_msg(msg) == stats
+    status = codecs.NodeStatus("uav4/agent: decision deadlines", "uav4", "WARN", "2 late", stats)
+    msg = _wire(codecs.diagnostics_to_msg([status], ns))
+    assert msg.status[0].name == "uav4/agent: decision deadlines"
+    assert msg.status[0].level == b"\x01" and msg.status[0].hardware_id == "uav4"
+    assert codecs.diagnostics_from_msg(msg) == [status]
 
 
 def test_decoders_reject_malformed_messages() -> None:
@@ -143,7 +145,7 @@ def test_contract_names_and_lookup() -> None:
     assert contract.spec_for("/wildfire/fire_map") is contract.FIRE_MAP
     assert contract.spec_for("/uav7/unknown") is None
     names = [name for name, _ in contract.topics_for(2)]
-    assert "/uav1/deadline" in names and "/clock" in names and len(names) == 6 + 2 * 5
+    assert "/diagnostics" in names and "/clock" in names and len(names) == 7 + 2 * 4
     assert contract.FIRE_MAP.qos.transient_local and contract.FIRE_MAP.qos.depth == 1
     with pytest.raises(ValueError, match=">= 0"):
         contract.aircraft_namespace(-1)

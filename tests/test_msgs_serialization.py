@@ -57,7 +57,8 @@ def _filled(type_name: str) -> object:
     if type_name == "rosgraph_msgs/msg/Clock":
         return codecs.clock_to_msg(123_456_789_012)
     if type_name == "diagnostic_msgs/msg/DiagnosticArray":
-        return codecs.deadline_to_msg({"misses": 3, "worst_ms": 12.5}, 1, 99, level="WARN")
+        status = codecs.NodeStatus("uav1/agent: x", "uav1", "WARN", "", {"misses": 3, "ms": 12.5})
+        return codecs.diagnostics_to_msg([status], 99)
     msg = get_message(type_name)()
     if type_name == "std_msgs/msg/Header":
         msg.frame_id, msg.stamp.sec, msg.stamp.nanosec = "uav1/base_link", 17, 5

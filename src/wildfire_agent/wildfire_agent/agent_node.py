@@ -2,8 +2,9 @@
 
 Subscribes to the truth (``/wildfire/fire_map``), the episode status, every other aircraft's
 ``state_stamped``, and the shared belief with its exact ages; publishes ``odom``,
-``bank_cmd``, ``state``, ``state_stamped``, ``visit`` and ``deadline`` (decision-time
-statistics) in its namespace. The decision itself is :class:`wildfire_agent.pilot.Pilot`.
+``bank_cmd``, ``state``, ``state_stamped`` and ``visit`` in its namespace, and its
+decision-deadline statistics on ``/diagnostics``. The decision itself is
+:class:`wildfire_agent.pilot.Pilot`.
 
 Lockstep (``mode: lockstep``): message driven. For tick ``k`` announced on
 ``/wildfire/episode`` the node waits for the fire map of that tick's fire step, then
@@ -35,10 +36,11 @@ from wildfire_agent.receding_horizon import RecedingHorizonConfig
 from wildfire_belief.visits import visit_windows, window_values
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.codecs import (
+    NodeStatus,
     VisitWindow,
     bank_cmd_to_msg,
     belief_from_msg,
-    deadline_to_msg,
+    diagnostics_to_msg,
     fire_grid_from_msg,
     pose_to_odometry,
     score_from_msg,
@@ -112,6 +114,11 @@ class DeadlineStats:
         if late_s + compute_s > PERIOD_S:
             self.missed += 1
 
+    def level(self) -> str:
+        """Diagnostic level: OK under 1 % missed deadlines, WARN under 10 %, else ERROR."""
+        fraction = self.missed / max(self.decisions, 1)
+        return "OK" if fraction < 0.01 else "WARN" if fraction < 0.1 else "ERROR"
+
     def as_dict(self) -> dict[str, float | int]:
         return {
             "decisions": self.decisions,
@@ -177,7 +184,7 @@ class AgentNode(Node):
         self.state_pub = publisher(contract.STATE)
         self.stamped_pub = publisher(contract.STATE_STAMPED)
         self.visit_pub = publisher(contract.VISIT)
-        self.deadline_pub = publisher(contract.DEADLINE)
+        self.diagnostics_pub = publisher(contract.DIAGNOSTICS)
         self.ack_pub = publisher(contract.ACK)
         self.snapshot_pub = publisher(contract.BELIEF_SNAPSHOT)
 
@@ -394,12 +401,18 @@ class AgentNode(Node):
         self.publish_state(tick)
 
     def publish_deadline(self, tick: int, force: bool = False) -> None:
-        """Deadline statistics once a second of flight (as diagnostics go), and at the end."""
+        """Deadline statistics on ``/diagnostics`` once a second of flight, and at the end."""
         if not force and self.stats.decisions % DEADLINE_EVERY_DECISIONS:
             return
         stats = self.stats.as_dict()
-        level = "WARN" if stats["missed"] else "OK"
-        self.deadline_pub.publish(deadline_to_msg(stats, self.k, self.now_stamp(tick), level=level))
+        status = NodeStatus(
+            f"{self.name_tag}/agent: {contract.DEADLINE_STATUS}",
+            self.name_tag,
+            self.stats.level(),
+            f"{stats['missed']} of {stats['decisions']} decisions missed their 100 ms slot",
+            dict(stats),
+        )
+        self.diagnostics_pub.publish(diagnostics_to_msg([status], self.now_stamp(tick)))
 
     @staticmethod
     def _trim(history: dict[int, Any], keep: int = 4) -> None:

@@ -17,7 +17,7 @@ import numpy as np
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.codecs import (
     belief_from_msg,
-    deadline_from_msg,
+    diagnostics_from_msg,
     fire_grid_from_msg,
     fuel_grid_from_msg,
     score_from_msg,
@@ -71,7 +71,7 @@ class RunMonitorNode(Node):
         subscribe(contract.SCORE, self.score_callback)
         for k in range(n_aircraft):
             subscribe(contract.STATE_STAMPED, lambda msg, k=k: self.state_callback(k, msg), k)
-            subscribe(contract.DEADLINE, lambda msg, k=k: self.deadline_callback(k, msg), k)
+        subscribe(contract.DIAGNOSTICS, self.diagnostics_callback)
         self.ack_pub.publish(ack_to_msg(REPORTER + READY_SUFFIX, 0))
 
     # --- callbacks ----------------------------------------------------------------------------
@@ -104,8 +104,14 @@ class RunMonitorNode(Node):
         self.states[k][stamp] = vector
         self.report()
 
-    def deadline_callback(self, k: int, msg: Any) -> None:
-        self.deadlines[k] = deadline_from_msg(msg)
+    def diagnostics_callback(self, msg: Any) -> None:
+        """Keep every agent's latest decision-deadline statistics."""
+        for status in diagnostics_from_msg(msg):
+            k = contract.aircraft_index("/" + status.hardware_id)
+            if k is not None and status.name.endswith(contract.DEADLINE_STATUS):
+                self.deadlines[k] = {
+                    key: value for key, value in status.values.items() if isinstance(value, float)
+                }
 
     # --- lockstep -----------------------------------------------------------------------------
 

@@ -21,8 +21,9 @@ at the grid's south-west corner in frame ``map``, exactly the ``OccupancyGrid`` 
 * exact aircraft state -> ``std_msgs/Float64MultiArray`` ``[x_m, y_m, heading_rad, bank_rad]``
   (float64, bit-exact, unlike the quaternion of the odometry);
 * score and bank command -> ``std_msgs/Float64``;
-* deadline statistics -> ``diagnostic_msgs/DiagnosticArray`` with one status ``uavK/deadline``
-  whose key/value pairs hold the numbers as text.
+* node statuses (:class:`NodeStatus`) -> ``diagnostic_msgs/DiagnosticArray`` on ``/diagnostics``,
+  key/value pairs holding the numbers as text; an agent's status is named
+  ``uavK/agent: decision deadlines`` with hardware id ``uavK``.
 """
 
 from __future__ import annotations
@@ -346,48 +347,63 @@ bank_cmd_to_msg = float64_to_msg
 bank_cmd_from_msg = float64_from_msg
 
 
-def deadline_to_msg(
-    stats: dict[str, float | int],
-    aircraft: int,
-    stamp: Any = 0,
-    *,
-    level: str = "OK",
-    message: str = "",
-    message_class: Any = None,
-) -> Any:
-    """Deadline statistics -> ``diagnostic_msgs/msg/DiagnosticArray`` (one status)."""
+class NodeStatus(NamedTuple):
+    """One status of ``/diagnostics`` (``diagnostic_msgs/msg/DiagnosticStatus``)."""
+
+    name: str
+    """``<node>: <what>``, as diagnostic_updater names its tasks."""
+    hardware_id: str
+    level: str
+    """``OK``, ``WARN``, ``ERROR`` or ``STALE``."""
+    message: str
+    values: dict[str, float | int | str]
+
+
+def diagnostics_to_msg(statuses: list[NodeStatus], stamp: Any = 0) -> Any:
+    """Statuses -> ``diagnostic_msgs/msg/DiagnosticArray``; numbers written with ``repr``."""
     from wildfire_msgs_py.runtime import get_message
 
-    msg = _message("diagnostic_msgs/msg/DiagnosticArray", message_class)
+    msg = _message("diagnostic_msgs/msg/DiagnosticArray")
     _set_stamp(msg.header, stamp, "")
     status_class = get_message("diagnostic_msgs/msg/DiagnosticStatus")
     key_value = get_message("diagnostic_msgs/msg/KeyValue")
-    status = status_class()
-    status.level = getattr(status_class, level)
-    status.name = f"{base_link_frame(aircraft).split('/')[0]}/deadline"
-    status.message = message
-    status.hardware_id = base_link_frame(aircraft).split("/")[0]
-    status.values = [
-        key_value(key=str(k), value=repr(float(v)) if isinstance(v, float) else str(v))
-        for k, v in stats.items()
-    ]
-    msg.status = [status]
+    entries = []
+    for status in statuses:
+        entry = status_class()
+        entry.level = getattr(status_class, status.level)
+        entry.name = status.name
+        entry.message = status.message
+        entry.hardware_id = status.hardware_id
+        entry.values = [
+            key_value(key=str(k), value=repr(float(v)) if isinstance(v, float) else str(v))
+            for k, v in status.values.items()
+        ]
+        entries.append(entry)
+    msg.status = entries
     return msg
 
 
-def deadline_from_msg(msg: Any) -> dict[str, float]:
-    """DiagnosticArray -> {key: number} of its first status."""
-    if not msg.status:
-        raise MessageFieldError("deadline message has no status entry")
-    result = {}
-    for pair in msg.status[0].values:
-        try:
-            result[pair.key] = float(pair.value)
-        except ValueError:
-            raise MessageFieldError(
-                f"deadline value {pair.key}={pair.value!r}: expected a number"
-            ) from None
-    return result
+_LEVELS = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
+
+
+def diagnostics_from_msg(msg: Any) -> list[NodeStatus]:
+    """DiagnosticArray -> statuses; values that parse as numbers become floats."""
+    statuses = []
+    for entry in msg.status:
+        level = entry.level
+        level = int.from_bytes(level, "little") if isinstance(level, bytes) else int(level)
+        values: dict[str, float | int | str] = {}
+        for pair in entry.values:
+            try:
+                values[pair.key] = float(pair.value)
+            except ValueError:
+                values[pair.key] = pair.value
+        statuses.append(
+            NodeStatus(
+                entry.name, entry.hardware_id, _LEVELS.get(level, "ERROR"), entry.message, values
+            )
+        )
+    return statuses
 
 
 __all__ = [
@@ -401,6 +417,7 @@ __all__ = [
     "STATE_FIELDS",
     "UNKNOWN_CELL",
     "AircraftPose",
+    "NodeStatus",
     "VisitWindow",
     "bank_cmd_from_msg",
     "bank_cmd_to_msg",
@@ -410,8 +427,8 @@ __all__ = [
     "belief_to_msg",
     "clock_from_msg",
     "clock_to_msg",
-    "deadline_from_msg",
-    "deadline_to_msg",
+    "diagnostics_from_msg",
+    "diagnostics_to_msg",
     "fire_grid_from_msg",
     "fire_grid_to_msg",
     "float64_from_msg",

@@ -18,7 +18,7 @@ topic                      type                                QoS (reliability,
 ``/uavK/bank_cmd``         ``std_msgs/msg/Float64``            reliable, volatile, 10
 ``/uavK/visit``            ``nav_msgs/msg/OccupancyGrid``      reliable, volatile, 10
 ``/uavK/state``            ``std_msgs/msg/Float64MultiArray``  reliable, volatile, 10
-``/uavK/deadline``         ``diagnostic_msgs/msg/DiagnosticArray``  reliable, volatile, 10
+``/diagnostics``           ``diagnostic_msgs/msg/DiagnosticArray``  reliable, volatile, 100
 =========================  ==================================  ===============================
 
 System topics of the running nodes (lockstep protocol, exact agent inputs, recovery):
@@ -181,12 +181,16 @@ STATE = TopicSpec(
     True,
     "exact aircraft state [x_m, y_m, heading_rad, bank_rad] as float64 (bit-exact for peers)",
 )
-DEADLINE = TopicSpec(
-    "deadline",
+#: Task name of an agent's status on ``/diagnostics``: ``uavK/agent: decision deadlines``,
+#: hardware id ``uavK``.
+DEADLINE_STATUS = "decision deadlines"
+DIAGNOSTICS = TopicSpec(
+    "/diagnostics",
     "diagnostic_msgs/msg/DiagnosticArray",
-    STREAM,
-    True,
-    "10 Hz decision deadline statistics of the agent",
+    QosSpec(depth=100, reliable=True, transient_local=False),
+    False,
+    "every node's status at 1 Hz and at the end (as diagnostic_aggregator, rqt_robot_monitor "
+    "and Foxglove read it): agents report decision-deadline statistics",
 )
 
 # --- system topics (lockstep protocol, exact inputs of the agents, belief recovery) ----------
@@ -252,7 +256,7 @@ TOPICS: tuple[TopicSpec, ...] = (
     BANK_CMD,
     VISIT,
     STATE,
-    DEADLINE,
+    DIAGNOSTICS,
 )
 #: Topics of the running system beyond the data contract (lockstep, recovery, exact inputs).
 SYSTEM_TOPICS: tuple[TopicSpec, ...] = (
@@ -329,7 +333,8 @@ __all__ = [
     "BELIEF_SNAPSHOT",
     "CLOCK",
     "CLOCK_QOS",
-    "DEADLINE",
+    "DEADLINE_STATUS",
+    "DIAGNOSTICS",
     "EPISODE",
     "FIRE_MAP",
     "FUEL_MAP",
