@@ -26,9 +26,11 @@ from typing import Any
 from wildfire_belief.aggregator import BeliefAggregator
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.codecs import (
+    NodeStatus,
     VisitWindow,
     belief_age_to_msg,
     belief_to_msg,
+    diagnostics_to_msg,
     score_to_msg,
     time_from_msg,
     visit_from_msg,
@@ -53,6 +55,8 @@ from wildfire_sim.errors import FireConfigError
 from wildfire_sim.shapes import Shape
 
 NAME = "belief_aggregator"
+STATUS_EVERY_TICKS = 10
+"""The node's status goes to ``/diagnostics`` once a second of flight."""
 PARAMETERS = (
     ParamSpec("n_aircraft", 2, "aircraft uav0..uav{n-1} whose visits are merged", 1, 64),
     ParamSpec("seed", 0, "episode seed (fixes the ignition seed's fuel)", 0, 2**31 - 1),
@@ -92,6 +96,7 @@ class BeliefAggregatorNode(Node):
         self.score_pub = contract_publisher(self, contract.SCORE)
         self.ack_pub = contract_publisher(self, contract.ACK)
         self.request_pub = contract_publisher(self, contract.BELIEF_REQUEST)
+        self.diagnostics_pub = contract_publisher(self, contract.DIAGNOSTICS)
         for k in range(self.n):
             contract_subscription(
                 self,
@@ -123,6 +128,19 @@ class BeliefAggregatorNode(Node):
         self.age_pub.publish(belief_age_to_msg(ages, stamp))
         self.age_exact_pub.publish(age_image_to_msg(ages, stamp))
         self.score_pub.publish(score_to_msg(float(self.aggregator.score)))
+        if self.aggregator.ticks % STATUS_EVERY_TICKS == 0:
+            status = NodeStatus(
+                f"{NAME}: shared belief",
+                NAME,
+                "OK",
+                f"{self.aggregator.ticks} ticks merged",
+                {
+                    "ticks": self.aggregator.ticks,
+                    "score": float(self.aggregator.score),
+                    "believed_burning_cells": int(self.aggregator.burning.sum()),
+                },
+            )
+            self.diagnostics_pub.publish(diagnostics_to_msg([status], stamp))
 
     def stamp(self, tick: int) -> int:
         if self.mode == "lockstep":

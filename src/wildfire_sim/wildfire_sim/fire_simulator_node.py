@@ -21,7 +21,13 @@ import sys
 from typing import Any
 
 from wildfire_msgs_py import contract
-from wildfire_msgs_py.codecs import clock_to_msg, fire_grid_to_msg, fuel_grid_to_msg
+from wildfire_msgs_py.codecs import (
+    NodeStatus,
+    clock_to_msg,
+    diagnostics_to_msg,
+    fire_grid_to_msg,
+    fuel_grid_to_msg,
+)
 from wildfire_msgs_py.node_support import (
     ParamSpec,
     contract_publisher,
@@ -40,6 +46,9 @@ from wildfire_sim.errors import FireConfigError
 from wildfire_sim.shapes import Shape
 
 MODES = ("lockstep", "realtime")
+NAME = "fire_simulator"
+STATUS_EVERY_TICKS = 10
+"""The node's status goes to ``/diagnostics`` once a second of flight and at the end."""
 PARAMETERS = (
     ParamSpec("seed", 0, "episode seed (fuel and fire randomness)", 0, 2**31 - 1),
     ParamSpec("shape", "circular", "ignition shape", choices=tuple(s.value for s in Shape)),
@@ -58,7 +67,7 @@ class FireSimulatorNode(Node):
     """Publishes the truth grids and runs the episode clock (see the module docstring)."""
 
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__("fire_simulator", **kwargs)
+        super().__init__(NAME, **kwargs)
         p = declare_parameters(self, PARAMETERS)
         self.mode: str = p["mode"]
         self.reporters: set[str] = {f"uav{k}" for k in range(p["n_aircraft"])}
@@ -89,6 +98,7 @@ class FireSimulatorNode(Node):
         self.fuel_pub = contract_publisher(self, contract.FUEL_MAP)
         self.episode_pub = contract_publisher(self, contract.EPISODE)
         self.clock_pub = contract_publisher(self, contract.CLOCK)
+        self.diagnostics_pub = contract_publisher(self, contract.DIAGNOSTICS)
         # Header is keyless: every reporter writes the same instance, so the reader keeps a
         # deep history or acknowledgements of different reporters would replace each other.
         contract_subscription(
@@ -134,6 +144,23 @@ class FireSimulatorNode(Node):
         self.publish_status(self.episode.phase, self.episode.decisions)
         if self.mode == "lockstep":
             self.clock_pub.publish(clock_to_msg(self.stamp_ns()))
+        if self.episode.decisions % STATUS_EVERY_TICKS == 0:
+            self.publish_diagnostics()
+
+    def publish_diagnostics(self) -> None:
+        """The node's status on ``/diagnostics`` (once a second of flight and at the end)."""
+        status = NodeStatus(
+            f"{NAME}: episode",
+            NAME,
+            "OK",
+            f"{self.episode.phase} at tick {self.episode.decisions}",
+            {
+                "tick": self.episode.decisions,
+                "burning_cells": int(self.episode.burning.sum()),
+                "complete": int(self.complete),
+            },
+        )
+        self.diagnostics_pub.publish(diagnostics_to_msg([status], self.stamp_ns()))
 
     # --- callbacks ----------------------------------------------------------------------------
 
@@ -159,6 +186,7 @@ class FireSimulatorNode(Node):
             if self.episode.final:
                 self.complete = True
                 self.publish_status(self.episode.phase, self.episode.decisions, complete=True)
+                self.publish_diagnostics()
                 self.get_logger().info(
                     f"episode {self.episode.phase} after {self.episode.decisions} decisions"
                 )
@@ -174,6 +202,7 @@ class FireSimulatorNode(Node):
         if self.episode.final:
             self.complete = True
             self.publish_status(self.episode.phase, self.episode.decisions, complete=True)
+            self.publish_diagnostics()
             self.get_logger().info(f"episode {self.episode.phase} at {self.stamp_ns() / 1e9:.1f} s")
             return
         if self.episode.advance():
@@ -185,7 +214,7 @@ class FireSimulatorNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """``ros2 run wildfire_sim fire_simulator``."""
-    sys.exit(run_node(FireSimulatorNode, "fire_simulator", args, (FireConfigError, ValueError)))
+    sys.exit(run_node(FireSimulatorNode, NAME, args, (FireConfigError, ValueError)))
 
 
 if __name__ == "__main__":
