@@ -22,6 +22,7 @@ Every agent also keeps the last shared belief it saw and sends it on
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from typing import Any
@@ -202,7 +203,7 @@ class AgentNode(Node):
             contract_subscription(
                 self,
                 contract.STATE_STAMPED,
-                lambda msg, j=j: self.peer_state_callback(j, msg),
+                functools.partial(self.peer_state_callback, j),
                 aircraft=j,
             )
         self.publish_state(0)

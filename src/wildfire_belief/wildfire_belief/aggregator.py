@@ -21,12 +21,16 @@ from wildfire_sim.grid import GRID_SIZE
 
 
 class Window(Protocol):
-    """A visit window (``wildfire_msgs_py.codecs.VisitWindow``)."""
+    """A visit window (``wildfire_msgs_py.codecs.VisitWindow``, frozen: read-only fields)."""
 
-    row0: int
-    col0: int
-    visited: np.ndarray
-    burning: np.ndarray
+    @property
+    def row0(self) -> int: ...
+    @property
+    def col0(self) -> int: ...
+    @property
+    def visited(self) -> np.ndarray: ...
+    @property
+    def burning(self) -> np.ndarray: ...
 
 
 class BeliefAggregator:

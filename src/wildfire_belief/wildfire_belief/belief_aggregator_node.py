@@ -19,6 +19,7 @@ Restart: when it starts while an episode is already running (the latched status 
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from typing import Any
@@ -101,7 +102,7 @@ class BeliefAggregatorNode(Node):
             contract_subscription(
                 self,
                 contract.VISIT,
-                lambda msg, k=k: self.visit_callback(k, msg),
+                functools.partial(self.visit_callback, k),
                 aircraft=k,
                 qos=contract.QosSpec(depth=100),
             )

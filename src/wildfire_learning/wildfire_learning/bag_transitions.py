@@ -39,7 +39,12 @@ import numpy as np
 
 from wildfire_agent import pairwise, sensor
 from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS, AircraftState
-from wildfire_agent.rewards import fire_field_maps, observation_rewards, proximity_sum
+from wildfire_agent.rewards import (
+    FireFieldMaps,
+    fire_field_maps,
+    observation_rewards,
+    proximity_sum,
+)
 from wildfire_belief.belief import SharedBelief
 from wildfire_belief.ego_image import ego_images
 from wildfire_belief.visits import visit_windows, visited_cells
@@ -288,7 +293,7 @@ def rebuild_transitions(
     images: list[np.ndarray] = []
     pair_states: list[np.ndarray] = []
     rewards = np.zeros((decisions, n), dtype=np.float64)
-    maps = None
+    maps: FireFieldMaps | None = None
     maps_index = -1
     for i in range(decisions + 1):
         t = t0 + i
@@ -308,7 +313,7 @@ def rebuild_transitions(
             truth = burning[cell // GRID_SIZE, cell % GRID_SIZE]
             team = int(belief.visit(env_idx, cell, truth)[0])
         if i >= 1 and approach == "obs":
-            if maps_index != step:
+            if maps is None or maps_index != step:
                 maps, maps_index = fire_field_maps(burning[None], config.obs_weights), step
             rewards[i - 1] = observation_rewards(
                 maps, pose.x_m, pose.y_m, pose.bank_rad, config.obs_weights

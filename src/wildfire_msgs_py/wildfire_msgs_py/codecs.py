@@ -264,7 +264,7 @@ def yaw_rate(
 
 
 def pose_to_odometry(
-    pose: AircraftPose | tuple[float, float, float, float],
+    pose: AircraftPose | np.ndarray | tuple[float, float, float, float],
     aircraft: int,
     stamp: Any = 0,
     *,

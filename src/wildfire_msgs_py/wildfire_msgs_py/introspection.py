@@ -39,7 +39,9 @@ def is_message(value: Any) -> bool:
     )
 
 
-def message_to_dict(msg: Any, truncate_length: int | None = DEFAULT_TRUNCATE_LENGTH) -> dict:
+def message_to_dict(
+    msg: Any, truncate_length: int | None = DEFAULT_TRUNCATE_LENGTH
+) -> dict[str, Any]:
     """Nested plain dict; sequences longer than ``truncate_length`` end with ``'...'``."""
     return {name: _to_plain(getattr(msg, name), truncate_length) for name in field_types(msg)}
 

@@ -197,7 +197,7 @@ def run_node(
     )
 
     global _init_args
-    errors = (*PARAMETER_ERRORS, WildfireRosError, *user_errors)
+    errors: tuple[type[BaseException], ...] = (*PARAMETER_ERRORS, WildfireRosError, *user_errors)
     # rclpy reads sys.argv when args is None; the DDS backend needs them given.
     args = list(sys.argv if args is None else args)
     _init_args = args

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import importlib
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from wildfire_msgs_py.errors import BackendError, ParameterError, UnknownMessageTypeError
 from wildfire_msgs_py.network import apply_local_network_defaults
@@ -57,7 +57,9 @@ def _choose_backend() -> str:
 #: The backend in use: ``"rclpy"`` or ``"dds"``.
 BACKEND = _choose_backend()
 
-if BACKEND == "rclpy":
+# mypy checks node code against the Cyclone layer: it is always installed, and what it offers
+# is the surface both backends share (the rclpy branch is its reference, typed by rclpy).
+if BACKEND == "rclpy" and not TYPE_CHECKING:
     import rclpy
     from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
     from rclpy._rclpy_pybind11 import RCLError
@@ -139,8 +141,8 @@ else:
         """Our Cyclone DDS layer speaks the wire format of rmw_cyclonedds_cpp."""
         return "wildfire_cyclonedds"
 
-    INIT_ERRORS = ()
-    PARAMETER_ERRORS = (ParameterError,)
+    INIT_ERRORS: tuple[type[BaseException], ...] = ()
+    PARAMETER_ERRORS: tuple[type[BaseException], ...] = (ParameterError,)
     ParameterDescriptor = get_message("rcl_interfaces/msg/ParameterDescriptor")
     FloatingPointRange = get_message("rcl_interfaces/msg/FloatingPointRange")
     IntegerRange = get_message("rcl_interfaces/msg/IntegerRange")

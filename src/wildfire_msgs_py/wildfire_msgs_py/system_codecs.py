@@ -23,12 +23,12 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from wildfire_msgs_py.codecs import (
-    MAP_FRAME,
     STATE_FIELDS,
     _message,
     _set_stamp,
     time_from_msg,
 )
+from wildfire_msgs_py.contract import MAP_FRAME
 from wildfire_msgs_py.errors import MessageFieldError
 
 EPISODE_NAME = "wildfire/episode"

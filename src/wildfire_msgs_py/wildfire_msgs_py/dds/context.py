@@ -38,7 +38,7 @@ class Context:
         self.arguments = RosArguments()
         self.domain_id = 0
         self._participant: DomainParticipant | None = None
-        self._topics: dict[str, tuple[Topic, Any]] = {}
+        self._topics: dict[str, tuple[Topic[Any], Any]] = {}
         self._nodes: weakref.WeakSet[Any] = weakref.WeakSet()
         self._wake_guards: weakref.WeakSet[GuardCondition] = weakref.WeakSet()
         self._graph: Any = None
@@ -67,7 +67,7 @@ class Context:
             raise ShutdownError("ROS is not initialized: call rclpy.init() first")
         return self._participant
 
-    def topic(self, name: str, message_type: Any) -> Topic:
+    def topic(self, name: str, message_type: Any) -> Topic[Any]:
         """The DDS topic ``rt/<name>`` for a ROS topic name, created once per type."""
         with self._lock:
             known = self._topics.get(name)

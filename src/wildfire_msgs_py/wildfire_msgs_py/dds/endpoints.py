@@ -39,7 +39,7 @@ class Publisher:
         self.topic_name = topic_name
         self.qos_profile = qos
         topic = context.topic(topic_name, msg_type)
-        self._writer: DataWriter | None = DataWriter(
+        self._writer: DataWriter[Any] | None = DataWriter(
             context.participant, topic, qos=to_cyclone(qos)
         )
 
@@ -99,7 +99,7 @@ class Subscription:
         self.qos_profile = qos
         self.raw = raw
         topic = context.topic(topic_name, msg_type)
-        self._reader: DataReader | None = DataReader(
+        self._reader: DataReader[Any] | None = DataReader(
             context.participant, topic, qos=to_cyclone(qos)
         )
         self.condition: ReadCondition | None = ReadCondition(self._reader, _ANY_STATE)

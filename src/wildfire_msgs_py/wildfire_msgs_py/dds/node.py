@@ -220,7 +220,12 @@ class Node:
         """Declare several ``(name, default[, descriptor])`` under ``namespace.``."""
         prefix = f"{namespace}." if namespace else ""
         return [
-            self.declare_parameter(prefix + entry[0], *entry[1:3], ignore_override=ignore_override)
+            self.declare_parameter(
+                prefix + entry[0],
+                entry[1] if len(entry) > 1 else None,
+                entry[2] if len(entry) > 2 else None,
+                ignore_override=ignore_override,
+            )
             for entry in parameters
         ]
 

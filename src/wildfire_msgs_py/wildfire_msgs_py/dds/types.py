@@ -26,7 +26,7 @@ import re
 import sys
 import threading
 from functools import cache
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from cyclonedds.idl import IdlMeta, IdlStruct
@@ -61,6 +61,11 @@ _BASE_TYPES: dict[str, tuple[Any, str | None, str | None, Any]] = {
     "float64": (idl.float64, "d", "<f8", 0.0),
     "string": (str, None, None, ""),
 }
+
+# Cyclone's array/sequence make field annotations at run time (``idl.array[T, N]``); mypy knows
+# them only inside annotations (through cyclonedds' plugin), so they are called through Any here.
+_idl_array: Any = idl.array
+_idl_sequence: Any = idl.sequence
 
 # Default values declared in the .msg files of common_interfaces (the type store drops them).
 _FIELD_DEFAULTS: dict[tuple[str, str], Any] = {("geometry_msgs/msg/Quaternion", "w"): 1.0}
@@ -104,7 +109,7 @@ def message_definition(type_name: str) -> str:
     return typestore().generate_msgdef(normalize_type_name(type_name), ros_version=2)[0]
 
 
-def get_message(type_name: str) -> type[IdlStruct]:
+def get_message(type_name: str) -> Any:
     """Message class for a ROS 2 type name; raises :class:`UnknownMessageTypeError`."""
     name = normalize_type_name(type_name)
     if name not in typestore().fielddefs:
@@ -149,7 +154,7 @@ class _NumericSequenceMachine(PlainCdrV2SequenceOfPrimitiveMachine):
             buffer.align(self.alignment)
             buffer.write_bytes(data)
 
-    def deserialize(self, buffer: Any, *_: Any, **__: Any) -> array.array:
+    def deserialize(self, buffer: Any, *_: Any, **__: Any) -> array.array[Any]:
         buffer.align(4)
         length = buffer.read("I", 4)
         values = array.array(self.array_code)
@@ -160,7 +165,7 @@ class _NumericSequenceMachine(PlainCdrV2SequenceOfPrimitiveMachine):
                 values.byteswap()
         return values
 
-    def default_initialize(self) -> array.array:
+    def default_initialize(self) -> array.array[Any]:
         return array.array(self.array_code)
 
 
@@ -222,9 +227,11 @@ def _install_bulk_machines(cls: Any, fields: list[tuple[str, Any]]) -> None:
         if node_type not in (Nodetype.SEQUENCE, Nodetype.ARRAY):
             continue
         (sub_type, sub_detail), count = detail
-        if sub_type != Nodetype.BASE or _BASE_TYPES[sub_detail[0]][1] is None:
+        if sub_type != Nodetype.BASE:
             continue
         idl_type, code, dtype, _ = _BASE_TYPES[sub_detail[0]]
+        if code is None or dtype is None:
+            continue
         if node_type == Nodetype.SEQUENCE and isinstance(
             current, SequenceMachine | PlainCdrV2SequenceOfPrimitiveMachine
         ):
@@ -266,13 +273,12 @@ def _default_factory(node_type: Any, detail: Any) -> Any:
     if node_type == Nodetype.NAME:
         return _build(detail)
     (sub_type, sub_detail), count = detail
-    numeric = sub_type == Nodetype.BASE and _BASE_TYPES[sub_detail[0]][1] is not None
+    code = _BASE_TYPES[sub_detail[0]][1] if sub_type == Nodetype.BASE else None
     if node_type == Nodetype.SEQUENCE:
-        if numeric:
-            code = _BASE_TYPES[sub_detail[0]][1]
+        if code is not None:
             return lambda: array.array(code)
         return list
-    if numeric:
+    if code is not None:
         dtype = _BASE_TYPES[sub_detail[0]][2]
         return lambda: np.zeros(count, dtype=dtype)
     element = _default_factory(sub_type, sub_detail)
@@ -290,8 +296,8 @@ def _annotation(node_type: Any, detail: Any) -> Any:
     (sub_type, sub_detail), count = detail
     inner = _annotation(sub_type, sub_detail)
     if node_type == Nodetype.ARRAY:
-        return idl.array[inner, count]
-    return idl.sequence[inner, count] if count else idl.sequence[inner]
+        return _idl_array[inner, count]
+    return _idl_sequence[inner, count] if count else _idl_sequence[inner]
 
 
 _CLASSES: dict[str, Any] = {}
@@ -303,7 +309,10 @@ def _build(type_name: str) -> Any:
         return _CLASSES[type_name]
     constants, fields = typestore().fielddefs[type_name]
     package, _, name = type_name.split("/")
-    namespace = IdlMeta.__prepare__(name, (IdlStruct,), typename=f"{package}::msg::dds_::{name}_")
+    namespace = cast(
+        "dict[str, Any]",
+        IdlMeta.__prepare__(name, (IdlStruct,), typename=f"{package}::msg::dds_::{name}_"),
+    )
     for field_name, (node_type, detail) in fields:
         namespace["__annotations__"][field_name] = _annotation(node_type, detail)
         factory = _default_factory(node_type, detail)
@@ -311,7 +320,7 @@ def _build(type_name: str) -> Any:
             default = _FIELD_DEFAULTS[type_name, field_name]
             factory = lambda default=default: default  # noqa: E731
         namespace[field_name] = dataclasses.field(default_factory=factory)
-    cls = IdlMeta(name, (IdlStruct,), namespace)
+    cls: Any = IdlMeta(name, (IdlStruct,), namespace)
     cls = dataclasses.dataclass(cls)
     cls.__module__ = f"{package}.msg"
     cls.__qualname__ = name
