@@ -465,7 +465,9 @@ def load_policy_weights(model: nn.Module, path: Path, approach: str, arch: str) 
 
 def config_from_dict(values: dict[str, Any]) -> TrainConfig:
     known = {f.name for f in fields(TrainConfig)}
-    kept = {k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items() if k in known}
+    kept: dict[str, Any] = {
+        k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items() if k in known
+    }
     return TrainConfig(**kept)
 
 
@@ -602,9 +604,11 @@ def train(
     rng = np.random.default_rng(config.seed)
     device = torch.device(options.device)
     memory_format = torch.channels_last if config.channels_last else torch.contiguous_format
-    q_network = build_q_network(approach, config.arch).to(device, memory_format=memory_format)
+    # torch's stubs omit the memory_format keyword that Module.to accepts.
+    q_network = build_q_network(approach, config.arch)
+    q_network = q_network.to(device, memory_format=memory_format)  # type: ignore[call-overload]
     target_network = build_q_network(approach, config.arch)
-    target_network = target_network.to(device, memory_format=memory_format)
+    target_network = target_network.to(device, memory_format=memory_format)  # type: ignore[call-overload]
     optimizer = torch.optim.Adamax(q_network.parameters(), lr=config.learning_rate)
     state = TrainState()
     codec = ImageCodec.for_approach(approach)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -73,7 +74,7 @@ class EvaluationSummary:
     def score_ceilings(self) -> np.ndarray:
         return np.array([e.score_ceiling for e in self.episodes], dtype=np.float64)
 
-    def to_json(self) -> dict[str, object]:
+    def to_json(self) -> dict[str, Any]:
         scores = self.scores
         sem = float(scores.std(ddof=1) / np.sqrt(scores.size)) if scores.size > 1 else 0.0
         return {

@@ -35,7 +35,9 @@ def export_policy(model: nn.Module, path: str | Path, card: dict[str, Any]) -> P
     if not path.parent.is_dir():
         raise LearningError(f"--out {path}: directory {path.parent} does not exist")
     # Deployment feeds single NCHW images: drop a channels-last training layout.
-    module = copy.deepcopy(model).to("cpu", memory_format=torch.contiguous_format).eval()
+    # torch's stubs omit the memory_format keyword that Module.to accepts.
+    module = copy.deepcopy(model).to("cpu", memory_format=torch.contiguous_format)  # type: ignore[call-overload]
+    module = module.eval()
     _save_with_card(torch.jit.script(module), path, card)
     return path
 

@@ -17,7 +17,7 @@ from pettingzoo import ParallelEnv
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 
 
-class WildfireParallelEnv(ParallelEnv):
+class WildfireParallelEnv(ParallelEnv):  # type: ignore[misc]  # pettingzoo is untyped
     """PettingZoo parallel API over a single wildfire episode.
 
     Arguments: ``config`` (:class:`EnvConfig`; ``observation`` must be ``obs`` or
@@ -44,10 +44,10 @@ class WildfireParallelEnv(ParallelEnv):
         self._action_space = spaces.Discrete(2)
         self._seed_rng = np.random.default_rng()
 
-    def observation_space(self, agent: str) -> spaces.Space:
+    def observation_space(self, agent: str) -> spaces.Space[Any]:
         return self._observation_space
 
-    def action_space(self, agent: str) -> spaces.Space:
+    def action_space(self, agent: str) -> spaces.Space[Any]:
         return self._action_space
 
     def _per_agent(self, observations: dict[str, np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
@@ -65,7 +65,15 @@ class WildfireParallelEnv(ParallelEnv):
         self.agents = [] if self._env.done[0] else list(self.possible_agents)
         return self._per_agent(observations), {agent: {} for agent in self.possible_agents}
 
-    def step(self, actions: dict[str, int]) -> tuple[dict, dict, dict, dict, dict]:
+    def step(
+        self, actions: dict[str, int]
+    ) -> tuple[
+        dict[str, dict[str, np.ndarray]],
+        dict[str, float],
+        dict[str, bool],
+        dict[str, bool],
+        dict[str, dict[str, int]],
+    ]:
         joint = np.array([[int(actions[agent]) for agent in self.possible_agents]])
         result = self._env.step(joint)
         observations = self._per_agent(result.observations)

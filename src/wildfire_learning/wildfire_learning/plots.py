@@ -4,13 +4,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
 matplotlib.use("Agg")  # files only: never open a window
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.colors import ListedColormap
+from matplotlib.image import AxesImage
 
 from wildfire_sim.grid import MAP_SIZE_M
 
@@ -24,17 +27,17 @@ def fire_state_image(burning: np.ndarray, affected: np.ndarray) -> np.ndarray:
     return np.where(burning, 2, np.where(affected, 1, 0))
 
 
-def _show_grid(ax: plt.Axes, grid: np.ndarray, **style: object) -> object:
+def _show_grid(ax: Axes, grid: np.ndarray, **style: Any) -> AxesImage:
     """Draw a map-frame grid (row 0 at the south) over the 1 km square."""
     return ax.imshow(grid, origin="lower", extent=EXTENT, interpolation="nearest", **style)
 
 
-def _show_fire(ax: plt.Axes, truth: np.ndarray, alpha: float = 1.0) -> None:
+def _show_fire(ax: Axes, truth: np.ndarray, alpha: float = 1.0) -> None:
     """Draw a ``fire_state_image``: unburnt, burnt out, burning."""
     _show_grid(ax, truth, cmap=FIRE_COLOURS, vmin=0, vmax=2, alpha=alpha)
 
 
-def _map_axes(ax: plt.Axes, title: str) -> None:
+def _map_axes(ax: Axes, title: str) -> None:
     ax.set_title(title, fontsize=9)
     ax.set_xlim(0, MAP_SIZE_M)
     ax.set_ylim(0, MAP_SIZE_M)
