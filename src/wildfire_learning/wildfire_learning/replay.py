@@ -147,7 +147,7 @@ class ReplayBuffer:
         obs_ids: np.ndarray,
         actions: np.ndarray,
         rewards: np.ndarray,
-        terminated: np.ndarray,
+        terminated: np.ndarray | float,
         next_ids: np.ndarray,
         steps: np.ndarray | int = 1,
     ) -> None:

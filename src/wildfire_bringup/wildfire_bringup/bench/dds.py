@@ -77,10 +77,12 @@ RawMapMetaData = _raw_struct(
         "origin": RawPose,
     },
 )
+# Cyclone's sequence makes an annotation at run time; mypy knows it only inside annotations.
+_sequence: Any = sequence
 RawOccupancyGrid = _raw_struct(
     "OccupancyGrid",
     "nav_msgs::msg::dds_::OccupancyGrid_",
-    {"header": RawHeader, "info": RawMapMetaData, "data": sequence[int8]},
+    {"header": RawHeader, "info": RawMapMetaData, "data": _sequence[int8]},
 )
 
 

@@ -85,8 +85,9 @@ def iteration_ms(approach: str, arch: str, repeats: int, device: str = "cpu") ->
     contents do not change the time)."""
     config = TrainConfig(approach=approach, arch=arch)
     memory_format = torch.channels_last if config.channels_last else torch.contiguous_format
-    q_network = build_q_network(approach, arch).to(device, memory_format=memory_format)
-    target = build_q_network(approach, arch).to(device, memory_format=memory_format)
+    # torch's stubs omit the memory_format keyword that Module.to accepts.
+    q_network = build_q_network(approach, arch).to(device, memory_format=memory_format)  # type: ignore[call-overload]
+    target = build_q_network(approach, arch).to(device, memory_format=memory_format)  # type: ignore[call-overload]
     optimizer = torch.optim.Adamax(q_network.parameters(), lr=config.learning_rate)
     shape = IMAGE_SHAPES[approach]
     replay = ReplayBuffer(1_000, shape, (1, 5), ImageCodec.for_approach(approach))

@@ -8,6 +8,7 @@ uniform per cell. It is only used to measure how much the batched model gains.
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from wildfire_sim.fire import spread_kernel
 
@@ -15,7 +16,9 @@ from wildfire_sim.fire import spread_kernel
 class ReferenceFire:
     """One fire, stepped with plain numpy, float64 probabilities."""
 
-    def __init__(self, seed: int, ignition: np.ndarray, fuel_mask: np.ndarray, wind) -> None:
+    def __init__(
+        self, seed: int, ignition: np.ndarray, fuel_mask: np.ndarray, wind: npt.ArrayLike
+    ) -> None:
         self.rng = np.random.default_rng(seed)
         self.fuel = self.rng.integers(15, 21, size=ignition.shape).astype(np.int64)
         self.fuel[~fuel_mask] = 0

@@ -28,7 +28,7 @@ DEVICE_CAPABLE = {"inference"}
 """Suites that time networks and so take ``--device``."""
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "bench",
         help="measure speed (fire, environment, planner, inference, DDS, system)",
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.json:
             print(f"[{name}] {what} ...", flush=True)
         tic = time.perf_counter()
-        kwargs = {"quick": True} if args.quick and name in QUICK_CAPABLE else {}
+        kwargs: dict[str, Any] = {"quick": True} if args.quick and name in QUICK_CAPABLE else {}
         if args.quick and name == "fire":
             kwargs = {"steps": 40}
         if args.quick and name == "env":

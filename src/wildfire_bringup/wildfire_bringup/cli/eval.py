@@ -23,7 +23,7 @@ from wildfire_learning.report import Scenario
 from wildfire_sim.shapes import Shape
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "eval",
         help="score a controller on seeded episodes",
@@ -97,6 +97,9 @@ def run(args: argparse.Namespace) -> int:
 
         first = summary.episodes[0]
         assert first.trajectory is not None
+        assert first.final_burning is not None
+        assert first.final_affected is not None
+        assert first.final_belief is not None
         plot_episode(
             first.final_burning,
             first.final_affected,

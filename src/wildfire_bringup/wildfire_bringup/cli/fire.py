@@ -13,7 +13,7 @@ from wildfire_sim.grid import CELL_SIZE_M
 from wildfire_sim.shapes import Shape, shape_masks
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "fire",
         help="simulate the wildfire model alone",

@@ -42,7 +42,7 @@ from wildfire_learning.report import (
 DEFAULT_CONTROLLERS = ("obs", "belief", "rh", "rh-paper", "random")
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "report",
         help="evaluate controllers on the paper's scenarios; write the results table and chart",

@@ -26,7 +26,7 @@ from wildfire_bringup.cli.common import (
 from wildfire_bringup.cli.progress import progress_bar
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "run",
         help="launch the distributed system (one process per node)",

@@ -70,7 +70,7 @@ def _field_docs() -> dict[str, str]:
     return docs
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "train",
         help="train a DQN policy (simulation or recorded bags)",
