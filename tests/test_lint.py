@@ -20,3 +20,12 @@ def test_ruff(command: list[str]) -> None:
         [str(RUFF), *command, "src", "tests"], cwd=ROOT, capture_output=True, text=True
     )
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_mypy() -> None:
+    """A bare ``mypy`` checks the packages under src/ (configured in pyproject.toml)."""
+    mypy = Path(sys.executable).with_name("mypy")
+    if not mypy.exists():
+        pytest.skip("mypy is not installed in this environment (scripts/setup.sh installs it)")
+    done = subprocess.run([str(mypy)], cwd=ROOT, capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
