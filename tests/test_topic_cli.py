@@ -26,7 +26,7 @@ def wildfire(
 
 
 @pytest.mark.dds
-@pytest.mark.timeout(90)
+@pytest.mark.timeout(150)
 def test_echo_pub_list_info_across_processes(dds_env: dict[str, str]) -> None:
     echo = subprocess.Popen(
         [
@@ -37,7 +37,7 @@ def test_echo_pub_list_info_across_processes(dds_env: dict[str, str]) -> None:
             "std_msgs/msg/Float64",
             "--once",
             "--timeout",
-            "30",
+            "60",
         ],
         env=dds_env,
         stdout=subprocess.PIPE,
@@ -64,13 +64,18 @@ def test_echo_pub_list_info_across_processes(dds_env: dict[str, str]) -> None:
     )
     try:
         time.sleep(1.0)
+        # The echo process may still be starting (imports, discovery): wait for it to match.
         pub = wildfire(
-            ["topic", "pub", "--once", "/uav0/bank_cmd", "std_msgs/msg/Float64", "data: -0.0872"],
+            [
+                *("topic", "pub", "--once", "--wait-matching", "40"),
+                *("/uav0/bank_cmd", "std_msgs/msg/Float64", "data: -0.0872"),
+            ],
             dds_env,
+            timeout=60,
         )
         assert pub.returncode == 0, pub.stderr
         assert "publishing #1: " in pub.stdout
-        out, err = echo.communicate(timeout=30)
+        out, err = echo.communicate(timeout=60)
         assert echo.returncode == 0, err
         assert out == "data: -0.0872\n---\n"
 

@@ -26,12 +26,16 @@ from wildfire_bringup.cli.ros_tools import (
 if TYPE_CHECKING:
     import argparse
 
-DISCOVERY_S = 1.0
+DISCOVERY_S = 2.0
 """How long ``list`` listens for discovery before answering."""
 INFO_DISCOVERY_S = 5.0
 """Longest ``info`` waits for its topic to be discovered."""
 ENDPOINT_SETTLE_S = 0.3
 """Extra time ``info`` listens once its topic is known, for the other endpoints."""
+GRAPH_SETTLE_S = 0.5
+"""``list`` ends once no new topic has shown up for this long (after ``--spin-time``)."""
+READER_MATCH_SETTLE_S = 0.5
+"""How long ``pub`` lets a just-matched reader discover it before the first message."""
 
 
 def add_parser(subparsers: Any) -> None:
@@ -126,7 +130,19 @@ def _absolute(topic: str) -> str:
 def run_list(args: argparse.Namespace) -> int:
     """``topic list``."""
     with ros_node("wildfire_topic_list") as node:
-        time.sleep(args.spin_time)
+        # Listen at least --spin-time, and on while discovery still brings new topics.
+        start = last_change = time.monotonic()
+        known: set[str] = set()
+        while True:
+            now = time.monotonic()
+            names = {name for name, _ in node.get_topic_names_and_types()}
+            if names != known:
+                known, last_change = names, now
+            if now - start >= args.spin_time and now - last_change >= GRAPH_SETTLE_S:
+                break
+            if now - start >= 3 * args.spin_time:
+                break
+            time.sleep(0.05)
         for name, types in node.get_topic_names_and_types():
             print(f"{name} [{', '.join(types)}]" if args.show_types else name)
     return 0
@@ -274,6 +290,10 @@ def run_pub(args: argparse.Namespace) -> int:
         end_wait = time.monotonic() + args.wait_matching
         while publisher.get_subscription_count() == 0 and time.monotonic() < end_wait:
             time.sleep(0.02)
+        if publisher.get_subscription_count():
+            # Our writer has matched a reader, but the reader may not have matched us yet, and
+            # a volatile reader (Fast DDS) ignores samples written before it did.
+            time.sleep(READER_MATCH_SETTLE_S)
         print("publisher: beginning loop", flush=True)
         count = 0
         period = 1.0 / args.rate
