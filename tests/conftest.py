@@ -27,6 +27,7 @@ os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 # so a test session uses 1..100, derived from its process id.
 os.environ["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 100)
 
+
 def _default_backend() -> str:
     try:
         import rclpy  # noqa: F401
