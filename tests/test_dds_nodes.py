@@ -168,12 +168,21 @@ def test_pub_sub_across_processes(ros_runtime: Any, dds_env: dict[str, str]) -> 
     assert codecs.state_from_msg(states[0])[0] == 1.0 / 3.0
 
 
-def test_rclpy_backend_is_used_when_installed() -> None:
+def test_rclpy_backend_is_used_when_installed(dds_env: dict[str, str]) -> None:
     pytest.importorskip("rclpy", reason="rclpy (ROS 2 Jazzy) is not installed on this machine")
-    from wildfire_msgs_py import runtime
-
-    assert runtime.BACKEND == "rclpy"
-    assert runtime.get_message("std_msgs/msg/String").__module__.startswith("std_msgs.msg")
+    code = (
+        "from wildfire_msgs_py.runtime import BACKEND, get_message; "
+        "print(BACKEND, get_message('std_msgs/msg/String').__module__)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        env={**dds_env, "WILDFIRE_ROS_BACKEND": "auto"},
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=True,
+    ).stdout.split()
+    assert out[0] == "rclpy" and out[1].startswith("std_msgs.msg")
 
 
 def test_dds_backend_falls_back_to_loopback_config(dds_env: dict[str, str]) -> None:

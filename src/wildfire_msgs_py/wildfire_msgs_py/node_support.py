@@ -192,7 +192,7 @@ def run_node(
         INIT_ERRORS,
         PARAMETER_ERRORS,
         ExternalShutdownException,
-        NodeExecutor,
+        SingleThreadedExecutor,
         rclpy,
     )
 
@@ -215,7 +215,10 @@ def run_node(
     executor = None
     try:
         node = build()
-        executor = NodeExecutor()
+        # rclpy.experimental.EventsExecutor would wake less often, but with rclpy 7.1.6 the
+        # lockstep start handshake never completes under it (the fire simulator never hears
+        # the agents' latched ready messages): every node spins on the standard executor.
+        executor = SingleThreadedExecutor()
         executor.add_node(node)
         executor.spin()
     except errors as error:

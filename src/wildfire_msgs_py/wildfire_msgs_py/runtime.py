@@ -71,11 +71,6 @@ if BACKEND == "rclpy" and not TYPE_CHECKING:
         ParameterNotDeclaredException,
     )
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-
-    # rclpy.experimental.EventsExecutor would wake less often, but with rclpy 7.1.6 the
-    # lockstep start handshake never completes under it (the fire simulator never hears the
-    # agents' latched ready messages), so node processes keep the standard executor.
-    NodeExecutor = SingleThreadedExecutor
     from rclpy.node import Node
     from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -121,8 +116,6 @@ else:
     from wildfire_msgs_py.dds.clock import Duration, Time
     from wildfire_msgs_py.dds.context import ExternalShutdownException
     from wildfire_msgs_py.dds.executor import SingleThreadedExecutor
-
-    NodeExecutor = SingleThreadedExecutor
     from wildfire_msgs_py.dds.node import Node
     from wildfire_msgs_py.dds.parameters import Parameter
     from wildfire_msgs_py.dds.qos import (
@@ -163,7 +156,6 @@ __all__ = [
     "HistoryPolicy",
     "IntegerRange",
     "Node",
-    "NodeExecutor",
     "Parameter",
     "ParameterDescriptor",
     "QoSProfile",
