@@ -13,6 +13,11 @@ killed. When a child dies the launcher names it, its exit status and the last li
 wrote, finalizes the recording and stops the rest — or, with ``respawn`` in real time,
 starts it again (an agent continues from its last published state, the aggregator recovers
 the belief from the agents).
+
+With ``RunSpec.hosts`` the run spreads over that many virtual hosts, Linux network namespaces on
+a bridge of their own (:mod:`wildfire_bringup.hosts`): the launcher joins host 0 before its
+participant exists, every child starts under ``ip netns exec`` with its host's DDS settings, and
+the namespaces are removed when the run ends, fails or is interrupted.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from wildfire_bringup.hosts import VirtualHosts
 from wildfire_bringup.monitor_node import REPORTER, RunMonitorNode
 from wildfire_msgs_py.network import apply_local_network_defaults
 
@@ -67,6 +73,8 @@ class RunSpec:
     agent_backend: str | None = None
     """Runtime backend of the agent nodes (``rclpy``/``dds``) when it differs from the rest:
     a mixed system, the two backends talking over the wire."""
+    hosts: int = 0
+    """Virtual hosts (network namespaces) to spread the nodes over; 0: this machine's network."""
 
     @property
     def mode(self) -> str:
@@ -190,6 +198,9 @@ class Launcher:
         self.log_dir = spec.log_dir or Path(tempfile.mkdtemp(prefix="wildfire-run-"))
         self.log_dir.mkdir(parents=True, exist_ok=True)
         self.processes: dict[str, subprocess.Popen[bytes]] = {}
+        self.network = (
+            VirtualHosts(spec.n_aircraft, spec.hosts, self.log_dir) if spec.hosts else None
+        )
         self.respawns: dict[str, int] = {}
         self.recorder: Any = None
         self.monitor: RunMonitorNode | None = None
@@ -208,6 +219,9 @@ class Launcher:
         env = self.env
         if self.spec.agent_backend is not None and name.startswith("uav"):
             env = {**env, "WILDFIRE_ROS_BACKEND": self.spec.agent_backend}
+        if self.network is not None:
+            env = self.network.environment(name, env)
+            command = self.network.command(name, command)
         self.processes[name] = subprocess.Popen(
             command,
             env=env,
@@ -270,7 +284,19 @@ class Launcher:
     def run(
         self, progress: Callable[[int], None] | None = None, timeout_s: float | None = None
     ) -> RunMonitorNode:
-        """Start everything, wait for the end of the episode, stop; return the monitor."""
+        """Start everything, wait for the end of the episode, stop; return the monitor.
+
+        On virtual hosts, inside them: this thread joins host 0 first and the namespaces go
+        away after the nodes stopped, on every way out (also :class:`KeyboardInterrupt`).
+        """
+        if self.network is None:
+            return self._run(progress, timeout_s)
+        with self.network:
+            return self._run(progress, timeout_s)
+
+    def _run(
+        self, progress: Callable[[int], None] | None, timeout_s: float | None
+    ) -> RunMonitorNode:
         from wildfire_msgs_py import runtime
 
         os.environ["ROS_DOMAIN_ID"] = self.env["ROS_DOMAIN_ID"]

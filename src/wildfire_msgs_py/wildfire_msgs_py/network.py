@@ -17,13 +17,20 @@ A variable the user set is never touched, so several hosts are an explicit opt-i
 an opt-in for Fast DDS: the loopback profile would whitelist 127.0.0.1 only and so silently
 defeat it. The runtime calls this when it is imported; the launcher calls it on
 the environment of every child it starts.
+
+For a system spread over several hosts whose addresses are known, :func:`host_network_environment`
+gives the variables of one host: both middlewares on that host's address only, multicast off,
+unicast discovery to the listed hosts (the generated twins of ``config/cyclonedds_multihost.xml``
+and ``config/fastdds_multihost.xml``). ``wildfire run --hosts K`` sets them on every process; being
+set, they are the user's choice to :func:`apply_local_network_defaults`.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import MutableMapping
+from collections.abc import MutableMapping, Sequence
 from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 #: Inline form of ``config/cyclonedds_loopback.xml`` (Cyclone accepts XML in CYCLONEDDS_URI).
 CYCLONEDDS_LOOPBACK_XML = (
@@ -68,9 +75,99 @@ def apply_local_network_defaults(
     return applied
 
 
+#: Variables that would pull a host's participants off its explicit configuration: another
+#: profile file (Fast DDS 3 reads ``FASTDDS_``), extra peers, localhost-only or a discovery server.
+CONFLICTING_HOST_VARIABLES = (
+    "FASTDDS_DEFAULT_PROFILES_FILE",
+    "ROS_STATIC_PEERS",
+    "ROS_LOCALHOST_ONLY",
+    "ROS_DISCOVERY_SERVER",
+)
+
+
+def cyclonedds_hosts_xml(address: str, peers: Sequence[str]) -> str:
+    """Inline ``CYCLONEDDS_URI`` of one host: its interface only, multicast off, these peers.
+
+    The generated form of ``config/cyclonedds_multihost.xml``.
+    """
+    peer_list = "".join(f"<Peer address={quoteattr(peer)}/>" for peer in peers)
+    return (
+        '<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="any">'
+        f"<General><Interfaces><NetworkInterface address={quoteattr(address)}/></Interfaces>"
+        "<AllowMulticast>false</AllowMulticast></General>"
+        "<Discovery><ParticipantIndex>auto</ParticipantIndex>"
+        "<MaxAutoParticipantIndex>40</MaxAutoParticipantIndex>"
+        f"<Peers>{peer_list}</Peers></Discovery>"
+        "</Domain></CycloneDDS>"
+    )
+
+
+def _udp_locator(address: str) -> str:
+    return f"<locator><udpv4><address>{address}</address></udpv4></locator>"
+
+
+def fastdds_hosts_profile(address: str, peers: Sequence[str]) -> str:
+    """Fast DDS profile XML of one host: UDPv4 on its address only, unicast discovery to peers.
+
+    The generated form of ``config/fastdds_multihost.xml`` without its shared-memory transport:
+    the virtual hosts of ``wildfire run --hosts`` share one ``/dev/shm``, through which they could
+    reach each other around the network under test. Participants of one host talk over UDP to
+    their own address (the kernel delivers that locally).
+    """
+    initial_peers = "".join(_udp_locator(peer) for peer in peers)
+    return f"""<?xml version="1.0" encoding="UTF-8"?>
+<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <profiles>
+    <transport_descriptors>
+      <transport_descriptor>
+        <transport_id>wildfire_udp_host</transport_id>
+        <type>UDPv4</type>
+        <maxInitialPeersRange>32</maxInitialPeersRange>
+        <interfaceWhiteList><address>{address}</address></interfaceWhiteList>
+      </transport_descriptor>
+    </transport_descriptors>
+    <participant profile_name="wildfire_host" is_default_profile="true">
+      <rtps>
+        <useBuiltinTransports>false</useBuiltinTransports>
+        <userTransports><transport_id>wildfire_udp_host</transport_id></userTransports>
+        <defaultUnicastLocatorList>{_udp_locator(address)}</defaultUnicastLocatorList>
+        <builtin>
+          <metatrafficUnicastLocatorList>{_udp_locator(address)}</metatrafficUnicastLocatorList>
+          <initialPeersList>{initial_peers}</initialPeersList>
+        </builtin>
+      </rtps>
+    </participant>
+  </profiles>
+</dds>
+"""
+
+
+def host_network_environment(
+    address: str, peers: Sequence[str], profile_dir: Path, name: str
+) -> dict[str, str]:
+    """The DDS variables of one host (both middlewares); writes its Fast DDS profile.
+
+    ``profile_dir/fastdds-<name>.xml`` receives the profile. ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is
+    ``SYSTEM_DEFAULT`` so that rmw_fastrtps applies the profile as written (with ``SUBNET`` it adds
+    the multicast group to the initial peers, with ``LOCALHOST`` a UDP transport on every
+    interface). Remove :data:`CONFLICTING_HOST_VARIABLES` from an environment these go into.
+    """
+    profile = profile_dir / f"fastdds-{name}.xml"
+    profile.write_text(fastdds_hosts_profile(address, peers))
+    return {
+        "CYCLONEDDS_URI": cyclonedds_hosts_xml(address, peers),
+        "FASTRTPS_DEFAULT_PROFILES_FILE": str(profile),
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "SYSTEM_DEFAULT",
+    }
+
+
 __all__ = [
+    "CONFLICTING_HOST_VARIABLES",
     "CYCLONEDDS_LOOPBACK_XML",
     "FASTDDS_LOOPBACK_PROFILE",
     "FASTDDS_PROFILE_VARIABLES",
     "apply_local_network_defaults",
+    "cyclonedds_hosts_xml",
+    "fastdds_hosts_profile",
+    "host_network_environment",
 ]

@@ -5,12 +5,15 @@ Starts the fire simulator, the belief aggregator and one agent per aircraft (plu
 end of the episode or on Ctrl-C (the recording is always finalized) and prints a summary.
 ``--fast`` (the default) runs in lockstep on sim time and flies exactly what
 ``wildfire eval --episodes 1`` flies for the same seed; ``--realtime`` runs on wall clocks.
+``--hosts K`` spreads the nodes over K virtual hosts (network namespaces joined by a private
+bridge, see :mod:`wildfire_bringup.hosts`), which the run creates and removes.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +23,7 @@ import yaml
 from wildfire_bringup.cli.common import (
     UserError,
     add_episode_arguments,
+    positive_int,
     print_json,
     scenario_settings,
 )
@@ -68,6 +72,13 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         choices=("rclpy", "dds"),
         help="run the agent nodes on this ROS runtime and the rest on the default one "
         "(a mixed system: real rclpy and our Cyclone DDS layer on one wire)",
+    )
+    parser.add_argument(
+        "--hosts",
+        type=positive_int,
+        metavar="K",
+        help="run on K virtual hosts (Linux network namespaces on a private bridge; root): "
+        "fire simulator, aggregator and agents on different hosts",
     )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.add_argument("--png", type=Path, metavar="FILE", help="draw fire, belief and paths")
@@ -123,11 +134,29 @@ def check_params_file(path: Path) -> Path:
     return path.resolve()
 
 
+def check_hosts(count: int | None, n_aircraft: int) -> int:
+    """``--hosts``: 0 when not given; else within 1..aircraft+2 and namespaces available."""
+    if count is None:
+        return 0
+    from wildfire_bringup.hosts import max_hosts, namespaces_unavailable
+
+    if count > max_hosts(n_aircraft):
+        raise UserError(
+            f"--hosts {count}: at most {max_hosts(n_aircraft)} with {n_aircraft} aircraft "
+            "(fire simulator, aggregator, one host per agent)"
+        )
+    reason = namespaces_unavailable()
+    if reason is not None:
+        raise UserError(f"--hosts {count}: {reason}")
+    return count
+
+
 def build_spec(args: argparse.Namespace) -> Any:
     from wildfire_bringup.launcher import RunSpec
     from wildfire_learning.env import EnvConfig, draw_scenario
     from wildfire_sim.shapes import Shape
 
+    hosts = check_hosts(args.hosts, args.aircraft)
     shape = Shape.parse(args.shape)
     policy = resolve_policy(args.policy)
     if args.respawn and not args.realtime:
@@ -149,6 +178,7 @@ def build_spec(args: argparse.Namespace) -> Any:
         log_dir=args.log_dir,
         params_file=check_params_file(args.params_file) if args.params_file else None,
         agent_backend=args.agent_backend,
+        hosts=hosts,
     )
 
 
@@ -222,6 +252,7 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
 
 
 def run(args: argparse.Namespace) -> int:
+    from wildfire_bringup.hosts import HostNetworkError
     from wildfire_bringup.launcher import Launcher, NodeFailure
     from wildfire_msgs_py.node_support import interrupt_on_stop_signals
 
@@ -233,18 +264,28 @@ def run(args: argparse.Namespace) -> int:
     interrupt_on_stop_signals()
     total = round(args.duration * 10)
     label = f"run {args.policy} ({spec.mode})"
+    if spec.hosts:
+        label += f" on {spec.hosts} hosts"
     try:
         with progress_bar(label, total, enabled=not args.json) as bar:
             monitor = launcher.run(progress=bar)
     except NodeFailure as error:
         where = f"; recording finalized in {spec.record_dir}" if spec.record_dir else ""
         raise UserError(f"{error}{where} (logs in {launcher.log_dir})") from None
+    except HostNetworkError as error:
+        raise UserError(f"--hosts {spec.hosts}: {error}") from None
+    network = launcher.network
+    if network is not None and network.removed_stale:
+        stale = ", ".join(network.removed_stale)
+        print(f"wildfire run: removed namespaces of an earlier run: {stale}", file=sys.stderr)
     result = summarise(spec, monitor, launcher.wall_s, launcher.flight_wall_s)
     affected = result.pop("_affected", None)
     if spec.record_dir is not None:
         result["record"] = str(spec.record_dir)
     if launcher.respawns:
         result["respawns"] = launcher.respawns
+    if network is not None:
+        result["hosts"] = network.summary()
     if args.png is not None and monitor.fire is not None and monitor.belief is not None:
         from wildfire_learning.plots import plot_episode
 
@@ -276,6 +317,8 @@ def run(args: argparse.Namespace) -> int:
             f"{result['wall_time_s']:.1f} s wall ({result['speedup']:.1f}x real time)"
             + (f"; missed deadlines {100 * missed:.2f} %" if missed is not None else "")
         )
+        for host in result.get("hosts", []):
+            print(f"host {host['namespace']} ({host['address']}): {', '.join(host['nodes'])}")
         for key in ("record", "png"):
             if key in result:
                 print(f"wrote {result[key]}")
