@@ -17,12 +17,13 @@ from wildfire_learning.bag_transitions import (
     rebuild_transitions,
     transitions_from_bags,
 )
-from wildfire_learning.env import DECISIONS_PER_FIRE_STEP, EnvConfig, WildfireVecEnv
+from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
 from wildfire_msgs_py import codecs, contract
 from wildfire_msgs_py.bag import BagWriter
 from wildfire_msgs_py.runtime import serialize_message as serialize
+from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
 
 DECISION_NS = 100_000_000
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))

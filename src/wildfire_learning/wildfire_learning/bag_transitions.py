@@ -37,30 +37,24 @@ from typing import NamedTuple
 
 import numpy as np
 
-from wildfire_agent import pairwise, sensor
+from wildfire_agent import pairwise
+from wildfire_agent.approaches import belief_images, belief_rewards, sensor_images
 from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS, AircraftState
-from wildfire_agent.rewards import (
-    FireFieldMaps,
-    fire_field_maps,
-    observation_rewards,
-    proximity_sum,
-)
+from wildfire_agent.rewards import FireFieldMaps, fire_field_maps, observation_rewards
 from wildfire_belief.belief import SharedBelief
-from wildfire_belief.ego_image import ego_images
 from wildfire_belief.visits import visit_windows, visited_cells
-from wildfire_learning.env import DECISIONS_PER_FIRE_STEP, EnvConfig
+from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
 from wildfire_msgs_py import codecs, contract
 from wildfire_msgs_py.bag import bag_info, read_messages
 from wildfire_msgs_py.errors import WildfireRosError
 from wildfire_msgs_py.system_codecs import stamped_state_from_msg
+from wildfire_sim.episode import DECISION_PERIOD_NS, DECISIONS_PER_FIRE_STEP, fire_at_border
 from wildfire_sim.grid import GRID_SIZE
 
-FIRE_STEP_NS = 2_500_000_000
+FIRE_STEP_NS = DECISIONS_PER_FIRE_STEP * DECISION_PERIOD_NS
 """Fire step period in nanoseconds (stamps of the fire maps)."""
-DECISION_NS = 100_000_000
-"""Decision period in nanoseconds (stamps of the stamped states)."""
 
 
 class Recording(NamedTuple):
@@ -126,7 +120,7 @@ def _place_stamped_states(
     for aircraft_stamps, aircraft_states in zip(stamps, states, strict=True):
         if not aircraft_stamps:
             raise LearningError(f"bag {bag}: an aircraft has no state message")
-        ticks = [round((stamp - start_ns) / DECISION_NS) for stamp in aircraft_stamps]
+        ticks = [round((stamp - start_ns) / DECISION_PERIOD_NS) for stamp in aircraft_stamps]
         by_tick.append(dict(zip(ticks, aircraft_states, strict=True)))
     first = max(min(ticks) for ticks in by_tick)
     last = min(max(ticks) for ticks in by_tick)
@@ -259,11 +253,6 @@ def actions_from_banks(previous_bank_rad: np.ndarray, commanded_bank_rad: np.nda
     return np.where(held, (before > 0).astype(np.int64), (delta > 0).astype(np.int64))
 
 
-def _fire_at_border(burning: np.ndarray, band: int) -> bool:
-    inner = burning[band : GRID_SIZE - band, band : GRID_SIZE - band].sum()
-    return bool(burning.sum() > inner)
-
-
 def rebuild_transitions(
     recording: Recording, approach: str, config: EnvConfig
 ) -> list[RebuiltSequence]:
@@ -312,28 +301,28 @@ def rebuild_transitions(
             env_idx, cell = visited_cells(visit_windows(pose.x_m, pose.y_m))
             truth = burning[cell // GRID_SIZE, cell % GRID_SIZE]
             team = int(belief.visit(env_idx, cell, truth)[0])
+        weights = config.obs_weights
         if i >= 1 and approach == "obs":
             if maps is None or maps_index != step:
-                maps, maps_index = fire_field_maps(burning[None], config.obs_weights), step
-            rewards[i - 1] = observation_rewards(
-                maps, pose.x_m, pose.y_m, pose.bank_rad, config.obs_weights
-            )[0]
+                maps, maps_index = fire_field_maps(burning[None], weights), step
+            rewards[i - 1] = observation_rewards(maps, pose.x_m, pose.y_m, pose.bank_rad, weights)[
+                0
+            ]
         elif i >= 1:
-            proximity = proximity_sum(pose.x_m, pose.y_m, config.obs_weights.proximity_scale_m)
-            rewards[i - 1] = team - config.belief_proximity_weight * proximity[0]
-        if approach == "obs":
-            image = sensor.observe(burning[None], pose.x_m, pose.y_m, pose.heading_rad)[0]
-            image = image[:, None].astype(np.float32)
-        else:
-            image = ego_images(
-                belief.burning, belief.age_s(), pose.x_m, pose.y_m, pose.heading_rad
+            team_reward = np.array([team])
+            rewards[i - 1] = belief_rewards(
+                team_reward, pose, weights, config.belief_proximity_weight
             )[0]
+        if approach == "obs":
+            image = sensor_images(burning[None], pose)[0]
+        else:
+            image = belief_images(belief.burning, belief.age_s(), pose)[0]
         images.append(codec.encode(image))
         pair_states.append(pairwise.normalise(pairwise.pairwise_states(pose))[0])
 
     terminated = np.zeros(decisions, dtype=np.float32)
     t_last = t0 + decisions
-    if t_last % DECISIONS_PER_FIRE_STEP == 0 and _fire_at_border(
+    if t_last % DECISIONS_PER_FIRE_STEP == 0 and fire_at_border(
         recording.fire_maps[t_last // DECISIONS_PER_FIRE_STEP], config.border_cells
     ):
         terminated[-1] = 1.0

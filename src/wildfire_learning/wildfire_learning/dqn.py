@@ -67,6 +67,7 @@ from wildfire_learning.exploration import PersistentExploration
 from wildfire_learning.export import export_policy
 from wildfire_learning.nstep import NStepAccumulator
 from wildfire_learning.replay import ImageCodec, ReplayBuffer
+from wildfire_sim.episode import EPISODE_DEFAULTS
 
 EVAL_SEED_BASE = VALIDATION_SEED_BASE
 """Evaluation seeds during training start here; training seeds stay below."""
@@ -128,9 +129,9 @@ class TrainConfig:
     """Aircraft per training episode."""
     shapes: tuple[str, ...] = ("circular", "arc")
     """Fire shapes of training episodes, drawn uniformly (closed and open fronts mixed)."""
-    max_wind: float = 0.8
+    max_wind: float = EPISODE_DEFAULTS.max_wind
     """Each wind component is uniform in [-max_wind, max_wind] (random wind)."""
-    episode_seconds: float = 400.0
+    episode_seconds: float = EPISODE_DEFAULTS.duration_s
     """Time limit of an episode (training and evaluation)."""
     buffer_size: int = 70_000
     """Replay capacity in transitions."""

@@ -24,12 +24,14 @@ Starting state
     The fire pre-burns ``preburn_steps`` fire steps; the belief starts as the ignition seed
     with every age at 255 s.
 Episode end
-    Terminated when, after a fire step, a burning cell lies within ``border_cells`` of the
-    map edge; truncated after ``max_duration_s``. The fire never depends on the aircraft, so
-    a seed fixes the episode length for every controller.
+    The rules of ``wildfire_sim.episode`` (the one rule book): terminated when, after a fire
+    step, a burning cell lies within ``border_cells`` of the map edge; truncated after
+    ``max_duration_s``. The fire never depends on the aircraft, so a seed fixes the episode
+    length for every controller.
 Decision order (one ``step``)
-    bank action -> fly 0.1 s -> every 25th decision a fire step -> cells within 100 m of any
-    aircraft are visited (belief <- truth, age <- 0) -> rewards -> end check.
+    bank action -> fly 0.1 s -> every ``DECISIONS_PER_FIRE_STEP``-th decision a fire step ->
+    cells within 100 m of any aircraft are visited (belief <- truth, age <- 0) -> rewards ->
+    end check.
 """
 
 from __future__ import annotations
@@ -39,7 +41,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from wildfire_agent import dynamics, pairwise, sensor
+from wildfire_agent import dynamics, pairwise
+from wildfire_agent.approaches import belief_images, belief_rewards, sensor_images
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.rewards import (
     FireFieldMaps,
@@ -47,19 +50,21 @@ from wildfire_agent.rewards import (
     distance_to_fire,
     fire_field_maps,
     observation_rewards,
-    proximity_sum,
 )
 from wildfire_belief.belief import SharedBelief
-from wildfire_belief.ego_image import ego_images
 from wildfire_belief.visits import visit_windows, visited_cells
 from wildfire_learning.errors import LearningError
+from wildfire_sim.episode import (
+    DECISIONS_PER_FIRE_STEP,
+    EPISODE_DEFAULTS,
+    decisions_in,
+    fire_at_border,
+)
 from wildfire_sim.fire import BatchedFire, FireParams
 from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.seeding import Stream, generator
 from wildfire_sim.shapes import Shape, seed_centre_m, shape_masks
 
-DECISIONS_PER_FIRE_STEP = 25
-"""2.5 s fire steps at 10 Hz decisions."""
 OBSERVATION_KINDS = ("obs", "belief", "none")
 REWARD_KINDS = ("obs", "belief")
 
@@ -74,17 +79,17 @@ class EnvConfig:
     """``obs`` (sensor image), ``belief`` (ego belief image) or ``none``."""
     reward: str = "obs"
     """``obs`` (observation-based reward) or ``belief`` (team reward - proximity)."""
-    shapes: tuple[str, ...] = ("circular",)
+    shapes: tuple[str, ...] = (EPISODE_DEFAULTS.shape,)
     """Fire shapes drawn uniformly per episode."""
     wind: tuple[float, float] | None = None
     """Fixed wind (wx, wy); None draws it per episode."""
-    max_wind: float = 0.8
+    max_wind: float = EPISODE_DEFAULTS.max_wind
     """Bound of each random wind component."""
-    preburn_steps: int = 30
+    preburn_steps: int = EPISODE_DEFAULTS.preburn_steps
     """Fire steps before the aircraft start."""
-    max_duration_s: float = 400.0
+    max_duration_s: float = EPISODE_DEFAULTS.duration_s
     """Truncation time of the flight."""
-    border_cells: int = 6
+    border_cells: int = EPISODE_DEFAULTS.border_cells
     """The episode ends when fire comes this close to the map edge."""
     start_range_m: tuple[float, float] = (150.0, 300.0)
     """Start distance from the seed centre."""
@@ -120,7 +125,7 @@ class EnvConfig:
 
     @property
     def max_decisions(self) -> int:
-        return round(self.max_duration_s / dynamics.DECISION_PERIOD_S)
+        return decisions_in(self.max_duration_s)
 
 
 class Scenario(NamedTuple):
@@ -218,7 +223,9 @@ class WildfireVecEnv:
             self.seeds[env] = seeds[k]
         self.decisions[env_ids] = 0
         self.scores[env_ids] = 0
-        self.terminated[env_ids] = self._fire_at_border(env_ids)
+        self.terminated[env_ids] = fire_at_border(
+            self.fire.burning[env_ids], self.config.border_cells
+        )
         self.done[env_ids] = self.terminated[env_ids]
         self._maps_stale[env_ids] = True
         self.truth = np.ascontiguousarray(self.fire.burning)
@@ -246,25 +253,17 @@ class WildfireVecEnv:
         team_reward = self._visit(active)
         self.scores += team_reward
 
+        weights, a = self.config.obs_weights, self.aircraft
         if self.config.reward == "obs":
-            rewards = observation_rewards(
-                self.maps,
-                self.aircraft.x_m,
-                self.aircraft.y_m,
-                self.aircraft.bank_rad,
-                self.config.obs_weights,
-            )
+            rewards = observation_rewards(self.maps, a.x_m, a.y_m, a.bank_rad, weights)
         else:
-            proximity = proximity_sum(
-                self.aircraft.x_m, self.aircraft.y_m, self.config.obs_weights.proximity_scale_m
-            )
-            rewards = team_reward[:, None] - self.config.belief_proximity_weight * proximity
+            rewards = belief_rewards(team_reward, a, weights, self.config.belief_proximity_weight)
         rewards = np.where(active[:, None], rewards, 0.0)
 
         terminated = np.zeros(self.num_envs, dtype=bool)
         if fire_due.any():
             due = np.flatnonzero(fire_due)
-            terminated[due] = self._fire_at_border(due)
+            terminated[due] = fire_at_border(self.truth[due], self.config.border_cells)
         truncated = active & ~terminated & (self.decisions >= self.config.max_decisions)
         self.terminated |= terminated
         self.done |= terminated | truncated
@@ -279,12 +278,6 @@ class WildfireVecEnv:
         env, cell = env[keep], cell[keep]
         truth = self.truth.reshape(-1)[env * GRID_SIZE * GRID_SIZE + cell]
         return self.belief.visit(env, cell, truth)
-
-    def _fire_at_border(self, env_ids: np.ndarray) -> np.ndarray:
-        band = self.config.border_cells
-        burning = self.fire.burning[env_ids]
-        inner = burning[:, band : GRID_SIZE - band, band : GRID_SIZE - band].sum(axis=(1, 2))
-        return burning.sum(axis=(1, 2)) > inner
 
     # ------------------------------------------------------------ observation
     @property
@@ -312,19 +305,14 @@ class WildfireVecEnv:
         kind = self.config.observation
         if kind == "none":
             return {"state": self.pair_states()}
-        a = self.aircraft
         if kind == "obs":
-            images = sensor.observe(self.truth, a.x_m, a.y_m, a.heading_rad)[:, :, None]
-            images = images.astype(np.float32)
+            images = sensor_images(self.truth, self.aircraft)
         else:
-            images = ego_images(
-                self.belief.burning, self.belief.age_s(), a.x_m, a.y_m, a.heading_rad
-            )
+            images = belief_images(self.belief.burning, self.belief.age_s(), self.aircraft)
         return {"image": images, "state": self.pair_states()}
 
 
 __all__ = [
-    "DECISIONS_PER_FIRE_STEP",
     "EnvConfig",
     "Scenario",
     "StepResult",

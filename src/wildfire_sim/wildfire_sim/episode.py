@@ -1,13 +1,23 @@
-"""One fire episode as the fire-simulator node runs it (no ROS): reset, decisions, end.
+"""The episode rule book, and one fire episode as the fire-simulator node runs it (no ROS).
 
-The same rules as ``wildfire_learning.env.WildfireVecEnv`` (which composes the same
-``BatchedFire``): the fire resets from the seed and pre-burns ``preburn_steps`` fire steps;
-each decision increments the counter and every ``DECISIONS_PER_FIRE_STEP``-th decision steps
-the fire; after a fire step the episode is *terminated* when a burning cell lies within
-``border_cells`` of the map edge, otherwise *truncated* once ``max_decisions`` are flown.
+Every episode — :class:`FireEpisode` here (the fire-simulator node), the training
+environment ``wildfire_learning.env.WildfireVecEnv`` and the transitions rebuilt from bags
+(``wildfire_learning.bag_transitions``) — follows these rules, written only here:
+
+* the fire resets from the seed and pre-burns ``preburn_steps`` fire steps;
+* each decision increments the counter and every ``DECISIONS_PER_FIRE_STEP``-th decision
+  steps the fire;
+* after a fire step (and after the pre-burn) the episode is *terminated* when a burning cell
+  lies within ``border_cells`` of the map edge (:func:`fire_at_border`), otherwise it is
+  *truncated* once the decisions of the duration (:func:`decisions_in`) are flown.
+
+:data:`EPISODE_DEFAULTS` holds the default scenario, under the names of the fire
+simulator's parameters (``config/wildfire.yaml`` is tested to agree with it).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,13 +28,51 @@ DECISIONS_PER_FIRE_STEP = 25
 """2.5 s fire steps at 10 Hz decisions."""
 DECISION_PERIOD_NS = 100_000_000
 """One decision is 0.1 s; tick ``k`` happens at ``k * DECISION_PERIOD_NS`` of sim time."""
+NS_PER_S = 1_000_000_000
 
 
-def fire_at_border(burning: np.ndarray, border_cells: int) -> bool:
-    """True when a cell of the (H, W) ``burning`` grid lies within ``border_cells`` of an edge."""
-    height, width = burning.shape
-    inner = burning[border_cells : height - border_cells, border_cells : width - border_cells]
-    return bool(burning.sum() > inner.sum())
+@dataclass(frozen=True)
+class EpisodeDefaults:
+    """Default scenario of an episode; fields are named as the fire simulator's parameters."""
+
+    seed: int = 0
+    """Episode seed (fuel and fire randomness)."""
+    shape: str = "circular"
+    """Ignition shape."""
+    wind_x: float = 0.0
+    """Fixed dimensionless wind towards east (a single run; evaluation draws it per seed)."""
+    wind_y: float = 0.0
+    """Fixed dimensionless wind towards north."""
+    max_wind: float = 0.8
+    """Bound of each wind component when it is drawn per seed (the training range)."""
+    duration_s: float = 400.0
+    """Flight time limit."""
+    preburn_steps: int = 30
+    """Fire steps before the aircraft start."""
+    border_cells: int = 6
+    """The episode ends when fire comes this close to the map edge."""
+
+
+EPISODE_DEFAULTS = EpisodeDefaults()
+"""The one copy of the episode defaults (environment, fire simulator, CLIs)."""
+
+
+def decisions_in(duration_s: float) -> int:
+    """Decisions flown in ``duration_s`` seconds (the truncation limit)."""
+    # An integer rate (10 Hz): durations given to 0.1 s give whole decisions exactly.
+    return round(duration_s * (NS_PER_S // DECISION_PERIOD_NS))
+
+
+def fire_at_border(burning: np.ndarray, border_cells: int) -> np.ndarray:
+    """Whether a burning cell lies within ``border_cells`` of the map edge, per grid.
+
+    ``burning`` is (..., H, W) bool — one grid or a batch with leading environment
+    dimensions; the answer is a bool array of the leading shape (0-d for one grid).
+    """
+    height, width = burning.shape[-2:]
+    band = np.ones((height, width), dtype=bool)
+    band[border_cells : height - border_cells, border_cells : width - border_cells] = False
+    return np.asarray((burning & band).any(axis=(-2, -1)))
 
 
 def fire_step_tick(tick: int) -> int:
@@ -52,8 +100,8 @@ class FireEpisode:
         wind: tuple[float, float],
         *,
         max_decisions: int,
-        preburn_steps: int = 30,
-        border_cells: int = 6,
+        preburn_steps: int = EPISODE_DEFAULTS.preburn_steps,
+        border_cells: int = EPISODE_DEFAULTS.border_cells,
         params: FireParams | None = None,
     ) -> None:
         self.seed = int(seed)
@@ -68,7 +116,9 @@ class FireEpisode:
         for _ in range(preburn_steps):
             self.fire.step()
         self.decisions = 0
-        self.phase = "terminated" if fire_at_border(self.burning, self.border_cells) else "running"
+        self.phase = "running"
+        if fire_at_border(self.burning, self.border_cells):
+            self.phase = "terminated"
 
     @property
     def burning(self) -> np.ndarray:
@@ -102,7 +152,11 @@ class FireEpisode:
 __all__ = [
     "DECISIONS_PER_FIRE_STEP",
     "DECISION_PERIOD_NS",
+    "EPISODE_DEFAULTS",
+    "NS_PER_S",
+    "EpisodeDefaults",
     "FireEpisode",
+    "decisions_in",
     "fire_at_border",
     "fire_step_tick",
     "initial_fire",

@@ -1,0 +1,49 @@
+"""What each learning approach observes and is rewarded with — written once.
+
+* ``obs``: the sensor image of the true fire (``sensor.py``), (1, 30, 40) per aircraft, and
+  the observation-based reward r1 + r2 + r3 + r4 (``rewards.observation_rewards``);
+* ``belief``: the ego image of the shared belief and its ages (``wildfire_belief``),
+  (2, 100, 100) per aircraft, and the team reward (newly seen burning cells, shared by the
+  team) minus ``proximity_weight * sum_j exp(-rho_j / c)`` (:func:`belief_rewards`).
+
+The training environment, the transitions rebuilt from bags and an agent's pilot all call
+these functions, so the three see and score an aircraft identically. Every array leads with
+the environment dimension: poses are (E, N).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wildfire_agent import sensor
+from wildfire_agent.dynamics import AircraftState
+from wildfire_agent.rewards import ObservationRewardWeights, proximity_sum
+from wildfire_belief.ego_image import ego_images
+
+APPROACHES = ("obs", "belief")
+"""The observation kinds a Q-network takes (and the reward it is trained with)."""
+
+
+def sensor_images(truth: np.ndarray, pose: AircraftState) -> np.ndarray:
+    """``obs`` images (E, N, 1, 30, 40) float32 from the (E, H, W) true fire."""
+    images = sensor.observe(truth, pose.x_m, pose.y_m, pose.heading_rad)
+    return images[:, :, None].astype(np.float32)
+
+
+def belief_images(belief: np.ndarray, age_s: np.ndarray, pose: AircraftState) -> np.ndarray:
+    """``belief`` images (E, N, 2, 100, 100) float32 from (E, H, W) beliefs and their ages."""
+    return ego_images(belief, age_s, pose.x_m, pose.y_m, pose.heading_rad)
+
+
+def belief_rewards(
+    team_reward: np.ndarray,
+    pose: AircraftState,
+    weights: ObservationRewardWeights,
+    proximity_weight: float,
+) -> np.ndarray:
+    """``belief`` training rewards (E, N) float64 from the (E,) team rewards of a decision."""
+    proximity = proximity_sum(pose.x_m, pose.y_m, weights.proximity_scale_m)
+    return np.asarray(team_reward)[:, None] - proximity_weight * proximity
+
+
+__all__ = ["APPROACHES", "belief_images", "belief_rewards", "sensor_images"]
