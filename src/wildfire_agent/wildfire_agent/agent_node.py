@@ -18,6 +18,11 @@ visits; a decision that ends later than its 100 ms slot counts as a missed deadl
 
 Every agent also keeps the last shared belief it saw and sends it on
 ``/wildfire/belief_snapshot`` when a restarted belief aggregator asks for it.
+
+Every input is checked (:mod:`wildfire_msgs_py.wire_checks`) and kept by stamp in a
+:class:`~wildfire_msgs_py.input_guard.TickInbox`: the first message of a stamp counts, and
+replays, stamps far ahead and malformed messages are dropped and counted in the node's
+``/diagnostics`` (see ``docs/deployment.md``, "Security").
 """
 
 from __future__ import annotations
@@ -40,14 +45,17 @@ from wildfire_msgs_py.codecs import (
     NodeStatus,
     VisitWindow,
     bank_cmd_to_msg,
-    belief_from_msg,
     diagnostics_to_msg,
-    fire_grid_from_msg,
     pose_to_odometry,
-    score_from_msg,
     state_to_msg,
-    time_from_msg,
     visit_to_msg,
+)
+from wildfire_msgs_py.input_guard import (
+    DropReason,
+    InputGuard,
+    RejectedMessage,
+    TickInbox,
+    check_status_tick,
 )
 from wildfire_msgs_py.node_support import (
     ParamSpec,
@@ -61,17 +69,30 @@ from wildfire_msgs_py.system_codecs import (
     READY_SUFFIX,
     BeliefSnapshot,
     ack_to_msg,
-    age_image_from_msg,
-    episode_from_msg,
     snapshot_to_msg,
-    stamped_state_from_msg,
     stamped_state_to_msg,
 )
-from wildfire_sim.episode import DECISION_PERIOD_NS, fire_step_tick
+from wildfire_msgs_py.wire_checks import (
+    checked_age_image,
+    checked_episode,
+    checked_fire_grid,
+    checked_score,
+    checked_stamped_state,
+)
+from wildfire_sim.episode import DECISION_PERIOD_NS, DECISIONS_PER_FIRE_STEP, fire_step_tick
 
 PERIOD_S = DECISION_PERIOD_NS / 1e9
 DEADLINE_EVERY_DECISIONS = 10
 """Deadline statistics go out at 1 Hz: every message costs each node a publish."""
+FIRE_STEP_NS = DECISIONS_PER_FIRE_STEP * DECISION_PERIOD_NS
+AHEAD_TICKS = 2 * DECISIONS_PER_FIRE_STEP
+"""How far past the announced tick an honest input can be stamped (fire maps run one fire
+step ahead at most; statuses, states and beliefs a tick or two): anything further is refused."""
+REALTIME_AHEAD_NS = 10_000_000_000
+"""Real time: stamps more than 10 s past the node clock are refused (clock skew allowance)."""
+REQUEST_ANSWER_PERIOD_S = 1.0
+"""A belief snapshot (160 kB) goes out at most once a second, whoever asks."""
+MAX_BANK_RAD = float(dynamics.MAX_BANK_STEPS * dynamics.BANK_STEP_RAD)
 PARAMETERS = (
     ParamSpec("aircraft", 0, "index k of this aircraft (namespace /uavK)", 0, 63),
     ParamSpec("n_aircraft", 2, "aircraft in the team", 1, 64),
@@ -140,6 +161,7 @@ class AgentNode(Node):
         self.k: int = p["aircraft"]
         self.n: int = p["n_aircraft"]
         self.mode: str = p["mode"]
+        self.seed: int = p["seed"]
         self.name_tag = f"uav{self.k}"
         if self.k >= self.n:
             raise AgentConfigError(f"aircraft {self.k}: expected 0..{self.n - 1} (n_aircraft)")
@@ -160,12 +182,13 @@ class AgentNode(Node):
             heading_rad=np.array([p["start_heading"]]),
             bank_steps=np.array([p["start_bank_steps"]], dtype=np.int64),
         )
-        self.peer_states: dict[int, dict[int, np.ndarray]] = {
-            j: {} for j in range(self.n) if j != self.k
+        tick_ns = DECISION_PERIOD_NS if self.mode == "lockstep" else None
+        self.peer_states: dict[int, TickInbox[np.ndarray]] = {
+            j: TickInbox(tick_ns) for j in range(self.n) if j != self.k
         }
-        self.fire: dict[int, np.ndarray] = {}
-        self.belief: dict[int, np.ndarray] = {}
-        self.ages: dict[int, np.ndarray] = {}
+        self.fire: TickInbox[np.ndarray] = TickInbox(FIRE_STEP_NS)
+        self.belief: TickInbox[np.ndarray] = TickInbox(tick_ns)
+        self.ages: TickInbox[np.ndarray] = TickInbox(tick_ns)
         self.score = 0.0
         self.status_tick = -1
         self.final_tick: int | None = None
@@ -173,8 +196,9 @@ class AgentNode(Node):
         self.visited_tick = 0  # tick 0 has no visit: the belief starts from the ignition
         self.decided_tick = -1
         self.ready_sent = False
-        self.answered_requests: set[int] = set()
+        self.last_answer_s = -float("inf")
         self.stats = DeadlineStats()
+        self.input_guard = InputGuard(self.get_logger().warning)
         self.slot_start: float | None = None
 
         def publisher(spec: contract.TopicSpec) -> Any:
@@ -189,22 +213,37 @@ class AgentNode(Node):
         self.ack_pub = publisher(contract.ACK)
         self.snapshot_pub = publisher(contract.BELIEF_SNAPSHOT)
 
-        contract_subscription(self, contract.FIRE_MAP, self.fire_map_callback)
-        contract_subscription(self, contract.EPISODE, self.episode_callback)
+        guard = self.input_guard
+        # Deep reader histories on the inputs lockstep waits for: a flood on a keyless topic
+        # must not push the honest sample out of the queue before the executor takes it.
+        deep_latched = contract.QosSpec(depth=100, transient_local=True)
+        contract_subscription(
+            self, contract.FIRE_MAP, self.fire_map_callback, qos=deep_latched, guard=guard
+        )
+        contract_subscription(
+            self, contract.EPISODE, self.episode_callback, qos=deep_latched, guard=guard
+        )
         # The shared belief is an input of belief policies, and in real time each agent keeps
         # a copy for an aggregator that restarts (lockstep runs never respawn): a lockstep
         # agent flying another policy skips two 100 x 100 grids per tick.
         if self.pilot.needs_belief or self.mode == "realtime":
-            contract_subscription(self, contract.BELIEF, self.belief_callback)
-            contract_subscription(self, contract.BELIEF_AGE_EXACT, self.belief_age_callback)
-            contract_subscription(self, contract.SCORE, self.score_callback)
-            contract_subscription(self, contract.BELIEF_REQUEST, self.belief_request_callback)
+            for spec, callback in (
+                (contract.BELIEF, self.belief_callback),
+                (contract.BELIEF_AGE_EXACT, self.belief_age_callback),
+            ):
+                contract_subscription(self, spec, callback, qos=deep_latched, guard=guard)
+            contract_subscription(self, contract.SCORE, self.score_callback, guard=guard)
+            contract_subscription(
+                self, contract.BELIEF_REQUEST, self.belief_request_callback, guard=guard
+            )
         for j in self.peer_states:
             contract_subscription(
                 self,
                 contract.STATE_STAMPED,
                 functools.partial(self.peer_state_callback, j),
                 aircraft=j,
+                qos=deep_latched,
+                guard=guard,
             )
         self.publish_state(0)
         self.startup_timer = self.create_timer(0.1, self.startup_timer_callback)
@@ -253,18 +292,26 @@ class AgentNode(Node):
         self.ack_pub.publish(ack_to_msg(self.name_tag + READY_SUFFIX, 0))
         self.destroy_timer(self.startup_timer)
 
+    def ahead_limit_ns(self, ticks: int = AHEAD_TICKS) -> int:
+        """Newest stamp an honest input can carry now (lockstep: ticks past the status)."""
+        if self.mode == "lockstep":
+            return (max(self.status_tick, 0) + ticks) * DECISION_PERIOD_NS
+        return self.get_clock().now().nanoseconds + REALTIME_AHEAD_NS
+
     def fire_map_callback(self, msg: Any) -> None:
-        stamp = time_from_msg(msg.header.stamp)
-        self.fire[stamp] = fire_grid_from_msg(msg)
-        # Keep the maps a pending tick may still need.
-        for old in [s for s in self.fire if s < stamp - 25 * DECISION_PERIOD_NS]:
-            del self.fire[old]
+        stamp, burning = checked_fire_grid(msg)
+        # Fire maps are stamped with the sim tick in both modes.
+        self.fire.ceiling = (max(self.status_tick, 0) + AHEAD_TICKS) * DECISION_PERIOD_NS
+        self.fire.accept(stamp, burning)
+        if self.mode == "realtime":
+            self.fire.discard_below(stamp)  # decide from the newest map; refuse older ones
         self.advance()
 
     def episode_callback(self, msg: Any) -> None:
-        status = episode_from_msg(msg)
+        status = checked_episode(msg, self.seed)
         if status.phase == "waiting":
             return
+        check_status_tick(status.tick, self.status_tick, self.mode == "lockstep", AHEAD_TICKS)
         self.running = True
         self.status_tick = max(self.status_tick, status.tick)
         if status.final and self.final_tick is None:
@@ -274,41 +321,49 @@ class AgentNode(Node):
         self.advance()
 
     def peer_state_callback(self, j: int, msg: Any) -> None:
-        stamp, vector = stamped_state_from_msg(msg)
+        stamp, vector = checked_stamped_state(msg, MAX_BANK_RAD)
         states = self.peer_states[j]
-        states[stamp] = vector
+        states.ceiling = self.ahead_limit_ns()
+        states.accept(stamp, vector)
         if self.mode == "realtime":
-            states.clear()
-            states[stamp] = vector
+            states.discard_below(stamp)  # the newest pose is the peer's pose
         self.advance()
 
     def belief_callback(self, msg: Any) -> None:
-        self.belief[time_from_msg(msg.header.stamp)] = belief_from_msg(msg)
-        self._trim(self.belief)
-        self.advance()
+        self._keep_belief(self.belief, *checked_fire_grid(msg))
 
     def belief_age_callback(self, msg: Any) -> None:
-        self.ages[time_from_msg(msg.header.stamp)] = age_image_from_msg(msg)
-        self._trim(self.ages)
+        self._keep_belief(self.ages, *checked_age_image(msg))
+
+    def _keep_belief(self, inbox: TickInbox[np.ndarray], stamp: int, grid: np.ndarray) -> None:
+        inbox.ceiling = self.ahead_limit_ns()
+        inbox.accept(stamp, grid)
+        inbox.keep_newest(4)
         self.advance()
 
     def score_callback(self, msg: Any) -> None:
-        self.score = score_from_msg(msg)
+        # The score is cumulative and unstamped: an older (replayed) value is smaller.
+        self.score = max(self.score, checked_score(msg))
 
     def belief_request_callback(self, msg: Any) -> None:
-        """Send our copy of the shared belief to a (re)started aggregator, once per request."""
-        request = time_from_msg(msg.stamp)
-        common = sorted(set(self.belief) & set(self.ages))
-        if request in self.answered_requests or not common:
+        """Send our copy of the shared belief to a (re)started aggregator (at most 1/s)."""
+        common = sorted(set(self.belief.items) & set(self.ages.items))
+        if not common:
             return
-        self.answered_requests.add(request)
+        now = time.monotonic()
+        if now - self.last_answer_s < REQUEST_ANSWER_PERIOD_S:
+            raise RejectedMessage(DropReason.RATE_LIMITED, "belief snapshot sent under 1 s ago")
+        self.last_answer_s = now
         stamp = common[-1]
-        snapshot = BeliefSnapshot(stamp / 1e9, self.score, self.belief[stamp], self.ages[stamp])
+        snapshot = BeliefSnapshot(
+            stamp / 1e9, self.score, self.belief.items[stamp], self.ages.items[stamp]
+        )
         self.snapshot_pub.publish(snapshot_to_msg(snapshot))
 
     def decision_timer_callback(self) -> None:
         """Real time: one decision per 100 ms slot from the latest inputs."""
-        if not self.running or self.final_tick is not None or not self.fire:
+        newest_fire = self.fire.latest()
+        if not self.running or self.final_tick is not None or newest_fire is None:
             return
         start = time.monotonic()
         if self.slot_start is None:
@@ -318,8 +373,8 @@ class AgentNode(Node):
         belief, ages = self.latest_belief()
         if team is None or (self.pilot.needs_belief and belief is None):
             return
-        burning = self.fire[max(self.fire)]
-        action = self.pilot.decide(team, burning, max(self.fire), belief, ages)
+        fire_stamp, burning = newest_fire
+        action = self.pilot.decide(team, burning, fire_stamp, belief, ages)
         self.fly(action, tick=0)
         self.publish_visit(0, burning)
         self.stats.add(time.monotonic() - start, late)
@@ -363,8 +418,10 @@ class AgentNode(Node):
             self.fly(action, tick + 1)
             self.stats.add(time.monotonic() - start, 0.0)
             self.publish_deadline(tick + 1)
+            # What tick `tick` used is done with: later copies of it are replays.
             for states in self.peer_states.values():
-                states.pop(tick * DECISION_PERIOD_NS, None)
+                states.discard_below((tick + 1) * DECISION_PERIOD_NS)
+            self.fire.discard_below(fire_step_tick(tick + 1) * DECISION_PERIOD_NS)
             self.decided_tick = tick
             self.ack(tick)
 
@@ -376,9 +433,8 @@ class AgentNode(Node):
                 rows.append(_state_vector(self.state))
                 continue
             states = self.peer_states[j]
-            if not states:
-                return None
-            vector = states[max(states)] if latest else states.get(stamp)  # type: ignore[arg-type]
+            newest = states.latest()
+            vector = newest[1] if latest and newest else states.get(stamp or 0)
             if vector is None:
                 return None
             rows.append(vector)
@@ -390,11 +446,11 @@ class AgentNode(Node):
         return AircraftState(x, y, heading, bank_steps)
 
     def latest_belief(self) -> tuple[np.ndarray | None, np.ndarray | None]:
-        common = set(self.belief) & set(self.ages)
+        common = set(self.belief.items) & set(self.ages.items)
         if not common:
             return None, None
         stamp = max(common)
-        return self.belief[stamp], self.ages[stamp]
+        return self.belief.items[stamp], self.ages.items[stamp]
 
     def fly(self, action: int, tick: int) -> None:
         self.state = dynamics.step(self.state, np.array([action], dtype=np.int64))
@@ -406,19 +462,15 @@ class AgentNode(Node):
         if not force and self.stats.decisions % DEADLINE_EVERY_DECISIONS:
             return
         stats = self.stats.as_dict()
-        status = NodeStatus(
+        deadlines = NodeStatus(
             f"{self.name_tag}/agent: {contract.DEADLINE_STATUS}",
             self.name_tag,
             self.stats.level(),
             f"{stats['missed']} of {stats['decisions']} decisions missed their 100 ms slot",
             dict(stats),
         )
-        self.diagnostics_pub.publish(diagnostics_to_msg([status], self.now_stamp(tick)))
-
-    @staticmethod
-    def _trim(history: dict[int, Any], keep: int = 4) -> None:
-        for old in sorted(history)[:-keep]:
-            del history[old]
+        inputs = self.input_guard.status(f"{self.name_tag}/agent", self.name_tag)
+        self.diagnostics_pub.publish(diagnostics_to_msg([deadlines, inputs], self.now_stamp(tick)))
 
 
 def main(args: list[str] | None = None) -> None:

@@ -15,6 +15,10 @@ Restart: when it starts while an episode is already running (the latched status 
 ``tick > 0``) it asks the agents for their copy of the shared belief on
 ``/wildfire/belief_request`` and continues from the newest ``/wildfire/belief_snapshot``
 (within ``recover_timeout_s``; otherwise it warns and starts from the ignition seed).
+
+Every visit is checked (size, values, frame, stamp) before it is kept: one per aircraft and
+tick, the first one counts; replays of merged ticks, stamps far ahead and malformed windows
+are dropped and counted in the node's ``/diagnostics`` input-validation status.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ import time
 from typing import Any
 
 from wildfire_belief.aggregator import BeliefAggregator
+from wildfire_belief.visits import VISIT_WINDOW
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.codecs import (
     NodeStatus,
@@ -33,9 +38,8 @@ from wildfire_msgs_py.codecs import (
     belief_to_msg,
     diagnostics_to_msg,
     score_to_msg,
-    time_from_msg,
-    visit_from_msg,
 )
+from wildfire_msgs_py.input_guard import InputGuard, TickInbox, check_status_tick
 from wildfire_msgs_py.node_support import (
     ParamSpec,
     contract_publisher,
@@ -44,20 +48,19 @@ from wildfire_msgs_py.node_support import (
     run_node,
 )
 from wildfire_msgs_py.runtime import Node
-from wildfire_msgs_py.system_codecs import (
-    READY_SUFFIX,
-    ack_to_msg,
-    age_image_to_msg,
-    episode_from_msg,
-    snapshot_from_msg,
-)
-from wildfire_sim.episode import DECISION_PERIOD_NS, initial_fire
+from wildfire_msgs_py.system_codecs import READY_SUFFIX, ack_to_msg, age_image_to_msg
+from wildfire_msgs_py.wire_checks import checked_episode, checked_snapshot, checked_visit
+from wildfire_sim.episode import DECISION_PERIOD_NS, DECISIONS_PER_FIRE_STEP, initial_fire
 from wildfire_sim.errors import FireConfigError
 from wildfire_sim.shapes import Shape
 
 NAME = "belief_aggregator"
 STATUS_EVERY_TICKS = 10
 """The node's status goes to ``/diagnostics`` once a second of flight."""
+AHEAD_TICKS = 2 * DECISIONS_PER_FIRE_STEP
+"""Visits stamped further past the announced tick than this are refused (lockstep)."""
+REALTIME_AHEAD_NS = 10_000_000_000
+"""Real time: visits stamped more than 10 s past the node clock are refused."""
 PARAMETERS = (
     ParamSpec("n_aircraft", 2, "aircraft uav0..uav{n-1} whose visits are merged", 1, 64),
     ParamSpec("seed", 0, "episode seed (fixes the ignition seed's fuel)", 0, 2**31 - 1),
@@ -79,11 +82,14 @@ class BeliefAggregatorNode(Node):
         p = declare_parameters(self, PARAMETERS)
         self.n: int = p["n_aircraft"]
         self.mode: str = p["mode"]
+        self.seed: int = p["seed"]
         self.recover_timeout_s: float = p["recover_timeout_s"]
         ignition = initial_fire(p["seed"], p["shape"]).burning[0]
         self.aggregator = BeliefAggregator(ignition)
-        self.pending: dict[int, dict[int, VisitWindow]] = {}  # stamp -> aircraft -> window
+        tick_ns = DECISION_PERIOD_NS if self.mode == "lockstep" else None
+        self.visits: list[TickInbox[VisitWindow]] = [TickInbox(tick_ns) for _ in range(self.n)]
         self.realtime_queue: list[VisitWindow] = []
+        self.input_guard = InputGuard(self.get_logger().warning)
         self.status_tick = -1
         self.final = False
         self.ready_sent = False
@@ -105,14 +111,22 @@ class BeliefAggregatorNode(Node):
                 functools.partial(self.visit_callback, k),
                 aircraft=k,
                 qos=contract.QosSpec(depth=100),
+                guard=self.input_guard,
             )
-        contract_subscription(self, contract.EPISODE, self.episode_callback)
+        contract_subscription(
+            self,
+            contract.EPISODE,
+            self.episode_callback,
+            qos=contract.QosSpec(depth=100, transient_local=True),
+            guard=self.input_guard,
+        )
         # Many agents answer on one keyless topic: keep them all.
         contract_subscription(
             self,
             contract.BELIEF_SNAPSHOT,
             self.snapshot_callback,
             qos=contract.QosSpec(depth=100, transient_local=True),
+            guard=self.input_guard,
         )
         self.startup_timer = self.create_timer(0.1, self.startup_timer_callback)
         self.merge_timer = (
@@ -141,7 +155,8 @@ class BeliefAggregatorNode(Node):
                     "believed_burning_cells": int(self.aggregator.burning.sum()),
                 },
             )
-            self.diagnostics_pub.publish(diagnostics_to_msg([status], stamp))
+            inputs = self.input_guard.status(NAME, NAME)
+            self.diagnostics_pub.publish(diagnostics_to_msg([status, inputs], stamp))
 
     def stamp(self, tick: int) -> int:
         if self.mode == "lockstep":
@@ -170,10 +185,13 @@ class BeliefAggregatorNode(Node):
         self.merge_lockstep()
 
     def episode_callback(self, msg: Any) -> None:
-        status = episode_from_msg(msg)
+        status = checked_episode(msg, self.seed)
         if status.phase == "waiting":
             return
-        if not self.started and status.tick > 0 and self.recovering_since is None:
+        check_status_tick(status.tick, self.status_tick, self.mode == "lockstep", AHEAD_TICKS)
+        # Only a real-time aggregator can be a restarted one (lockstep runs never respawn).
+        restarted = self.mode == "realtime" and not self.started and status.tick > 0
+        if restarted and self.recovering_since is None:
             self.begin_recovery()
         self.status_tick = max(self.status_tick, status.tick)
         self.final = self.final or status.final
@@ -182,16 +200,22 @@ class BeliefAggregatorNode(Node):
         self.merge_lockstep()
 
     def visit_callback(self, k: int, msg: Any) -> None:
-        window = visit_from_msg(msg)
+        stamp, window = checked_visit(msg, VISIT_WINDOW)
+        inbox = self.visits[k]
         if self.mode == "realtime":
+            inbox.ceiling = self.get_clock().now().nanoseconds + REALTIME_AHEAD_NS
+            inbox.accept(stamp, window)
+            inbox.discard_below(stamp + 1)  # each visit is merged once: older stamps are replays
             self.realtime_queue.append(window)
             return
-        self.pending.setdefault(time_from_msg(msg.header.stamp), {})[k] = window
+        inbox.ceiling = (max(self.status_tick, 0) + AHEAD_TICKS) * DECISION_PERIOD_NS
+        inbox.accept(stamp, window)
         self.merge_lockstep()
 
     def snapshot_callback(self, msg: Any) -> None:
+        snapshot = checked_snapshot(msg)
         if self.recovering_since is not None and not self.started:
-            self.snapshots.append(snapshot_from_msg(msg))
+            self.snapshots.append(snapshot)
 
     def merge_timer_callback(self) -> None:
         """Real time: one belief tick per 100 ms with the visits received meanwhile."""
@@ -210,11 +234,12 @@ class BeliefAggregatorNode(Node):
         while True:
             tick = self.aggregator.ticks + 1
             stamp = tick * DECISION_PERIOD_NS
-            windows = self.pending.get(stamp, {})
-            if tick > self.status_tick or len(windows) < self.n:
+            if tick > self.status_tick or any(stamp not in inbox for inbox in self.visits):
                 return
-            del self.pending[stamp]
-            self.aggregator.merge([windows[k] for k in range(self.n)])
+            windows = [inbox.items[stamp] for inbox in self.visits]
+            for inbox in self.visits:
+                inbox.discard_below(stamp + DECISION_PERIOD_NS)
+            self.aggregator.merge(windows)
             self.publish_belief(stamp)
             self.ack_pub.publish(ack_to_msg(NAME, stamp))
 

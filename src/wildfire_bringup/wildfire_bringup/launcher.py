@@ -247,8 +247,8 @@ class Launcher:
                 states = None
                 if name.startswith("uav") and self.monitor is not None:
                     k = int(name[3:])
-                    latest = self.monitor.states[k]
-                    states = {k: latest[max(latest)]} if latest else None
+                    newest = self.monitor.states[k].latest()
+                    states = {k: newest[1]} if newest else None
                 self.start_node(name, node_commands(self.spec, states)[name])
                 continue
             raise NodeFailure(f"node {name} died ({how}): {why}")
@@ -292,6 +292,11 @@ class Launcher:
         if self.network is None:
             return self._run(progress, timeout_s)
         with self.network:
+            if self.network.removed_stale:
+                stale = ", ".join(self.network.removed_stale)
+                print(
+                    f"wildfire run: removed the namespaces of a dead run: {stale}", file=sys.stderr
+                )
             return self._run(progress, timeout_s)
 
     def _run(
@@ -307,7 +312,7 @@ class Launcher:
         start = time.monotonic()
         try:
             self.executor = runtime.SingleThreadedExecutor()
-            self.monitor = RunMonitorNode(self.spec.n_aircraft, self.spec.lockstep)
+            self.monitor = RunMonitorNode(self.spec.n_aircraft, self.spec.lockstep, self.spec.seed)
             self.executor.add_node(self.monitor)
             if self.spec.record_dir is not None:
                 from wildfire_msgs_py.bag import BagRecorder

@@ -6,6 +6,10 @@ map (for the score ceiling), the shared belief and its exact ages, the score, ea
 deadline statistics and the episode status. In lockstep it is a reporter too
 (``wildfire_run``): it acknowledges tick ``k`` once it holds every aircraft's ``s_{k+1}``, so
 the recorder spinning in the same process never falls behind the system.
+
+Like every node it checks what it receives (:mod:`wildfire_msgs_py.wire_checks`): whatever
+another participant publishes, the summary is built from the system's own messages, and the
+dropped ones are counted (``input_guard``).
 """
 
 from __future__ import annotations
@@ -14,38 +18,47 @@ from typing import Any
 
 import numpy as np
 
+from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS
 from wildfire_msgs_py import contract
-from wildfire_msgs_py.codecs import (
-    belief_from_msg,
-    diagnostics_from_msg,
-    fire_grid_from_msg,
-    fuel_grid_from_msg,
-    score_from_msg,
-    time_from_msg,
+from wildfire_msgs_py.codecs import diagnostics_from_msg, fuel_grid_from_msg
+from wildfire_msgs_py.input_guard import (
+    INPUT_STATUS,
+    DropReason,
+    InputGuard,
+    RejectedMessage,
+    TickInbox,
+    check_status_tick,
 )
 from wildfire_msgs_py.node_support import contract_publisher, contract_subscription
 from wildfire_msgs_py.runtime import Node
-from wildfire_msgs_py.system_codecs import (
-    READY_SUFFIX,
-    EpisodeStatus,
-    ack_to_msg,
-    age_image_from_msg,
-    episode_from_msg,
-    stamped_state_from_msg,
+from wildfire_msgs_py.system_codecs import READY_SUFFIX, EpisodeStatus, ack_to_msg
+from wildfire_msgs_py.wire_checks import (
+    checked_age_image,
+    checked_episode,
+    checked_fire_grid,
+    checked_score,
+    checked_stamped_state,
 )
+from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
 
 REPORTER = "wildfire_run"
 TICK_NS = 100_000_000
+MAX_BANK_RAD = float(MAX_BANK_STEPS * BANK_STEP_RAD)
+MAX_STATUS_STEP = 2 * DECISIONS_PER_FIRE_STEP
 
 
 class RunMonitorNode(Node):
     """Collects trajectories and final maps; lockstep reporter ``wildfire_run``."""
 
-    def __init__(self, n_aircraft: int, lockstep: bool) -> None:
+    def __init__(self, n_aircraft: int, lockstep: bool, seed: int) -> None:
         super().__init__("wildfire_run")
+        self.seed = seed
         self.n = n_aircraft
         self.lockstep = lockstep
-        self.states: list[dict[int, np.ndarray]] = [{} for _ in range(n_aircraft)]
+        self.states: list[TickInbox[np.ndarray]] = [
+            TickInbox(TICK_NS if lockstep else None) for _ in range(n_aircraft)
+        ]
+        self.fire_stamp = -1
         self.status: EpisodeStatus | None = None
         self.fire: np.ndarray | None = None
         self.burned: np.ndarray | None = None
@@ -55,13 +68,17 @@ class RunMonitorNode(Node):
         self.ages: np.ndarray | None = None
         self.score = 0.0
         self.deadlines: dict[int, dict[str, float]] = {}
+        self.input_drops: dict[str, dict[str, float]] = {}
         self.acked_tick = -1
+        self.input_guard = InputGuard(self.get_logger().warning)
         self.ack_pub = contract_publisher(self, contract.ACK)
 
         def subscribe(spec: contract.TopicSpec, callback: Any, aircraft: int | None = None) -> None:
             # The monitor records every message: a deep history on every topic.
             qos = contract.QosSpec(depth=100, transient_local=spec.qos.transient_local)
-            contract_subscription(self, spec, callback, aircraft=aircraft, qos=qos)
+            contract_subscription(
+                self, spec, callback, aircraft=aircraft, qos=qos, guard=self.input_guard
+            )
 
         subscribe(contract.EPISODE, self.episode_callback)
         subscribe(contract.FIRE_MAP, self.fire_map_callback)
@@ -77,41 +94,66 @@ class RunMonitorNode(Node):
     # --- callbacks ----------------------------------------------------------------------------
 
     def episode_callback(self, msg: Any) -> None:
-        status = episode_from_msg(msg)
+        status = checked_episode(msg, self.seed)
+        last = -1 if self.status is None else self.status.tick
+        check_status_tick(status.tick, last, self.lockstep, MAX_STATUS_STEP)
         if self.status is None or status.tick >= self.status.tick:
             self.status = status
         self.report()
 
     def fire_map_callback(self, msg: Any) -> None:
-        self.fire = fire_grid_from_msg(msg)
+        stamp, fire = checked_fire_grid(msg)
+        self.fire_stamp = self._newer(self.fire_stamp, stamp)
+        self.fire = fire
         self.burned = self.fire.copy() if self.burned is None else self.burned | self.fire
 
     def fuel_map_callback(self, msg: Any) -> None:
         self.fuel = fuel_grid_from_msg(msg)
 
     def belief_callback(self, msg: Any) -> None:
-        self.belief = belief_from_msg(msg)
-        self.belief_stamp = time_from_msg(msg.header.stamp)
+        stamp, belief = checked_fire_grid(msg)
+        self.belief_stamp = self._newer(self.belief_stamp, stamp)
+        self.belief = belief
 
     def belief_age_callback(self, msg: Any) -> None:
-        self.ages = age_image_from_msg(msg)
+        _, self.ages = checked_age_image(msg)
 
     def score_callback(self, msg: Any) -> None:
-        self.score = score_from_msg(msg)
+        # Cumulative and unstamped: an older (replayed) value is smaller.
+        self.score = max(self.score, checked_score(msg))
 
     def state_callback(self, k: int, msg: Any) -> None:
-        stamp, vector = stamped_state_from_msg(msg)
-        self.states[k][stamp] = vector
+        stamp, vector = checked_stamped_state(msg, MAX_BANK_RAD)
+        self.states[k].accept(stamp, vector)
         self.report()
 
+    @staticmethod
+    def _newer(last_stamp: int, stamp: int) -> int:
+        """``stamp``, refused unless newer than ``last_stamp`` (a latched map's replay)."""
+        if stamp <= last_stamp:
+            raise RejectedMessage(DropReason.STALE, f"stamp {stamp} ns <= {last_stamp} ns")
+        return stamp
+
     def diagnostics_callback(self, msg: Any) -> None:
-        """Keep every agent's latest decision-deadline statistics."""
+        """Keep every agent's latest decision-deadline statistics and every node's drop counts.
+
+        Both only grow during a run: an older (replayed) status never replaces a newer one.
+        """
         for status in diagnostics_from_msg(msg):
+            numbers = {k: v for k, v in status.values.items() if isinstance(v, float)}
             k = contract.aircraft_index("/" + status.hardware_id)
             if k is not None and status.name.endswith(contract.DEADLINE_STATUS):
-                self.deadlines[k] = {
-                    key: value for key, value in status.values.items() if isinstance(value, float)
-                }
+                if numbers.get("decisions", -1) >= self.deadlines.get(k, {}).get("decisions", 0):
+                    self.deadlines[k] = numbers
+            elif status.name.endswith(INPUT_STATUS):
+                node = status.name.removesuffix(f": {INPUT_STATUS}")
+                if numbers.get("dropped", -1) >= self.input_drops.get(node, {}).get("dropped", 0):
+                    self.input_drops[node] = numbers
+
+    def dropped_inputs(self) -> dict[str, dict[str, float]]:
+        """Messages each node dropped (its last status), this monitor's own included."""
+        own = {"dropped": float(self.input_guard.total), **self.input_guard.counts()}
+        return {**self.input_drops, REPORTER: {k: float(v) for k, v in own.items()}}
 
     # --- lockstep -----------------------------------------------------------------------------
 
@@ -141,12 +183,12 @@ class RunMonitorNode(Node):
         between aircraft): each aircraft's states in order, cut to the shortest history.
         """
         if self.lockstep:
-            common = sorted(set.intersection(*(set(s) for s in self.states)))
-            return np.array([[self.states[k][t] for k in range(self.n)] for t in common])
+            common = sorted(set.intersection(*(set(s.items) for s in self.states)))
+            return np.array([[self.states[k].items[t] for k in range(self.n)] for t in common])
         length = min(len(s) for s in self.states)
         if length == 0:
             return np.zeros((0, self.n, 4))
-        per_aircraft = [[s[t] for t in sorted(s)][:length] for s in self.states]
+        per_aircraft = [[s.items[t] for t in sorted(s.items)][:length] for s in self.states]
         return np.stack([np.array(rows) for rows in per_aircraft], axis=1)
 
 

@@ -24,6 +24,7 @@ from typing import Any
 
 from wildfire_msgs_py.contract import QosSpec, TopicSpec
 from wildfire_msgs_py.errors import ParameterError, WildfireRosError
+from wildfire_msgs_py.input_guard import InputGuard
 
 EXIT_USER_ERROR = 2
 
@@ -152,12 +153,20 @@ def contract_subscription(
     callback: Callable[[Any], None],
     aircraft: int | None = None,
     qos: QosSpec | None = None,
+    guard: InputGuard | None = None,
 ) -> Any:
-    """Subscription to ``spec`` with its QoS, or ``qos`` where a reader needs a deeper history."""
+    """Subscription to ``spec`` with its QoS, or ``qos`` where a reader needs a deeper history.
+
+    With a ``guard``, a message the callback rejects (or cannot decode) is dropped and counted
+    instead of raising out of the executor: any participant may publish anything.
+    """
     from wildfire_msgs_py.runtime import get_message
 
+    topic = spec.resolve(aircraft)
+    if guard is not None:
+        callback = guard.guarded(topic, callback)
     return node.create_subscription(
-        get_message(spec.type), spec.resolve(aircraft), callback, (qos or spec.qos).profile()
+        get_message(spec.type), topic, callback, (qos or spec.qos).profile()
     )
 
 

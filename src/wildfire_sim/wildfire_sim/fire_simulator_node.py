@@ -13,6 +13,10 @@ every fire step, and ``/wildfire/episode`` (phase, tick, scenario). Two modes:
 
 At the end the phase is ``terminated`` (fire at the border) or ``truncated`` (duration);
 once every reporter has finished the last tick the status carries ``complete: true``.
+
+Acknowledgements are checked before they count: an unknown reporter, a tick not yet
+announced (future) or one already acknowledged (a replay) is dropped and counted in the
+node's ``/diagnostics`` input-validation status.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from wildfire_msgs_py.codecs import (
     fire_grid_to_msg,
     fuel_grid_to_msg,
 )
+from wildfire_msgs_py.input_guard import DropReason, InputGuard, RejectedMessage
 from wildfire_msgs_py.node_support import (
     ParamSpec,
     contract_publisher,
@@ -36,11 +41,8 @@ from wildfire_msgs_py.node_support import (
     run_node,
 )
 from wildfire_msgs_py.runtime import Node
-from wildfire_msgs_py.system_codecs import (
-    READY_SUFFIX,
-    ack_from_msg,
-    episode_to_msg,
-)
+from wildfire_msgs_py.system_codecs import READY_SUFFIX, episode_to_msg
+from wildfire_msgs_py.wire_checks import checked_ack
 from wildfire_sim.episode import DECISION_PERIOD_NS, FireEpisode
 from wildfire_sim.errors import FireConfigError
 from wildfire_sim.shapes import Shape
@@ -93,6 +95,7 @@ class FireSimulatorNode(Node):
         self.acked: dict[str, int] = {}
         self.started = False
         self.complete = False
+        self.input_guard = InputGuard(self.get_logger().warning)
 
         self.fire_pub = contract_publisher(self, contract.FIRE_MAP)
         self.fuel_pub = contract_publisher(self, contract.FUEL_MAP)
@@ -106,6 +109,7 @@ class FireSimulatorNode(Node):
             contract.ACK,
             self.ack_callback,
             qos=contract.QosSpec(depth=1000, transient_local=True),
+            guard=self.input_guard,
         )
         self.realtime_timer = (
             self.create_timer(DECISION_PERIOD_NS / 1e9, self.realtime_timer_callback)
@@ -160,16 +164,23 @@ class FireSimulatorNode(Node):
                 "complete": int(self.complete),
             },
         )
-        self.diagnostics_pub.publish(diagnostics_to_msg([status], self.stamp_ns()))
+        inputs = self.input_guard.status(NAME, NAME)
+        self.diagnostics_pub.publish(diagnostics_to_msg([status, inputs], self.stamp_ns()))
 
     # --- callbacks ----------------------------------------------------------------------------
 
     def ack_callback(self, msg: Any) -> None:
-        reporter, stamp = ack_from_msg(msg)
+        reporter, stamp = checked_ack(msg, self.reporters)
         if reporter.endswith(READY_SUFFIX):
             self.ready.add(reporter[: -len(READY_SUFFIX)])
+        elif stamp > self.stamp_ns() or not self.started:
+            # A tick not announced yet: acknowledging it would let the episode run on
+            # without the reporter.
+            raise RejectedMessage(DropReason.FUTURE, f"{reporter} acknowledged {stamp} ns")
+        elif stamp <= self.acked.get(reporter, -1):
+            raise RejectedMessage(DropReason.STALE, f"{reporter} acknowledged {stamp} ns again")
         else:
-            self.acked[reporter] = max(stamp, self.acked.get(reporter, -1))
+            self.acked[reporter] = stamp
         if not self.started:
             if self.reporters <= self.ready:
                 self.started = True

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -216,6 +215,8 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         "speedup": (decisions / 10.0) / flight_wall_s if flight_wall_s > 0 else 0.0,
         "distance_flown_m": flown.tolist(),
         "trajectory_points": len(trajectory),
+        # Received messages each node refused (malformed, out of range, replayed, ...).
+        "dropped_inputs": monitor.dropped_inputs(),
     }
     if monitor.fire is not None and monitor.belief is not None:
         result["belief_iou"] = float(belief_iou(monitor.belief[None], monitor.fire[None])[0])
@@ -275,9 +276,6 @@ def run(args: argparse.Namespace) -> int:
     except HostNetworkError as error:
         raise UserError(f"--hosts {spec.hosts}: {error}") from None
     network = launcher.network
-    if network is not None and network.removed_stale:
-        stale = ", ".join(network.removed_stale)
-        print(f"wildfire run: removed namespaces of an earlier run: {stale}", file=sys.stderr)
     result = summarise(spec, monitor, launcher.wall_s, launcher.flight_wall_s)
     affected = result.pop("_affected", None)
     if spec.record_dir is not None:

@@ -1,0 +1,212 @@
+"""Decoders for what nodes receive: the codecs plus every check a hostile sender could fail.
+
+The plain codecs (:mod:`wildfire_msgs_py.codecs`) read any well-formed message, e.g. from a
+bag. A node must also refuse what no honest node of the system publishes: grids of another
+size or resolution, fire values other than 0/100, frames other than ``map``, non-finite or
+out-of-range numbers, unknown reporters. Each ``checked_*`` function returns the decoded value
+or raises :class:`~wildfire_msgs_py.input_guard.RejectedMessage` naming the reason; the
+node's :class:`~wildfire_msgs_py.input_guard.InputGuard` then drops and counts the message.
+Stamps (stale, future, duplicate) are checked where the node's clock is known, by
+:class:`~wildfire_msgs_py.input_guard.TickInbox`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from wildfire_msgs_py.codecs import (
+    CELL_SIZE_M,
+    FIRE_BURNING,
+    FIRE_NOT_BURNING,
+    GRID_SIZE,
+    STATE_FIELDS,
+    UNKNOWN_CELL,
+    VisitWindow,
+    float64_from_msg,
+    grid_from_msg,
+    time_from_msg,
+    visit_from_msg,
+)
+from wildfire_msgs_py.contract import MAP_FRAME
+from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
+from wildfire_msgs_py.system_codecs import (
+    EPISODE_NAME,
+    READY_SUFFIX,
+    BeliefSnapshot,
+    EpisodeStatus,
+    ack_from_msg,
+    age_image_from_msg,
+    episode_from_msg,
+    snapshot_from_msg,
+    stamped_state_from_msg,
+)
+
+POSITION_LIMIT_M = 100_000.0
+"""No aircraft of an episode gets 100 km from the 1 km map."""
+HEADING_LIMIT_RAD = 1.0e6
+"""Headings are not wrapped; an honest one stays far below this after any episode."""
+AGE_LIMIT_S = 1.0e6
+"""Belief ages (seconds since visited) of any episode lie below this."""
+
+
+def _reject(reason: DropReason, detail: str) -> RejectedMessage:
+    return RejectedMessage(reason, detail)
+
+
+def _stamp(header: Any) -> int:
+    stamp = time_from_msg(header.stamp)
+    if stamp < 0:
+        raise _reject(DropReason.OUT_OF_RANGE, f"negative stamp {stamp} ns")
+    return stamp
+
+
+def _frame(header: Any, expected: str = MAP_FRAME) -> None:
+    if header.frame_id != expected:
+        raise _reject(DropReason.WRONG_FRAME, f"frame {header.frame_id!r}, expected {expected!r}")
+
+
+def _map_grid(msg: Any) -> np.ndarray:
+    """The (GRID_SIZE, GRID_SIZE) grid of a map-sized OccupancyGrid in frame ``map``."""
+    _frame(msg.header)
+    if (msg.info.height, msg.info.width) != (GRID_SIZE, GRID_SIZE):
+        raise _reject(
+            DropReason.MALFORMED,
+            f"grid {msg.info.height} x {msg.info.width}, expected {GRID_SIZE} x {GRID_SIZE}",
+        )
+    if msg.info.resolution != CELL_SIZE_M:
+        raise _reject(
+            DropReason.OUT_OF_RANGE, f"resolution {msg.info.resolution}, expected {CELL_SIZE_M}"
+        )
+    return grid_from_msg(msg)
+
+
+def checked_fire_grid(msg: Any) -> tuple[int, np.ndarray]:
+    """Fire map or shared belief -> (stamp ns, bool burning mask)."""
+    stamp = _stamp(msg.header)
+    grid = _map_grid(msg)
+    if not np.isin(grid, (FIRE_BURNING, FIRE_NOT_BURNING)).all():
+        raise _reject(DropReason.OUT_OF_RANGE, "fire grid values other than 0 and 100")
+    return stamp, grid == FIRE_BURNING
+
+
+def checked_age_image(msg: Any) -> tuple[int, np.ndarray]:
+    """Exact belief ages -> (stamp ns, (GRID_SIZE, GRID_SIZE) float32 seconds)."""
+    stamp = _stamp(msg.header)
+    _frame(msg.header)
+    ages = age_image_from_msg(msg)
+    if ages.shape != (GRID_SIZE, GRID_SIZE):
+        raise _reject(DropReason.MALFORMED, f"age image {ages.shape}, expected a map-sized grid")
+    if not _ages_ok(ages):
+        raise _reject(DropReason.OUT_OF_RANGE, f"ages not finite or outside 0..{AGE_LIMIT_S:g} s")
+    return stamp, ages
+
+
+def checked_stamped_state(msg: Any, max_bank_rad: float) -> tuple[int, np.ndarray]:
+    """Stamped exact state -> (stamp ns, ``[x_m, y_m, heading_rad, bank_rad]``)."""
+    stamp = _stamp(msg.header)
+    _frame(msg.header)
+    if list(msg.name) != list(STATE_FIELDS):
+        names = list(msg.name)
+        raise _reject(DropReason.MALFORMED, f"joint names {names}, expected {STATE_FIELDS}")
+    _, state = stamped_state_from_msg(msg)
+    if not np.isfinite(state).all():
+        raise _reject(DropReason.OUT_OF_RANGE, "state values not finite")
+    x, y, heading, bank = state
+    if max(abs(x), abs(y)) > POSITION_LIMIT_M or abs(heading) > HEADING_LIMIT_RAD:
+        raise _reject(DropReason.OUT_OF_RANGE, f"position ({x:g}, {y:g}) or heading {heading:g}")
+    if abs(bank) > max_bank_rad + 1e-9:
+        raise _reject(DropReason.OUT_OF_RANGE, f"bank {bank:g} rad beyond +-{max_bank_rad:g}")
+    return stamp, state
+
+
+def checked_visit(msg: Any, window_side: int) -> tuple[int, VisitWindow]:
+    """Visit window -> (stamp ns, window) of the expected size, origin on the cell grid."""
+    stamp = _stamp(msg.header)
+    _frame(msg.header)
+    if (msg.info.height, msg.info.width) != (window_side, window_side):
+        raise _reject(
+            DropReason.MALFORMED,
+            f"window {msg.info.height} x {msg.info.width}, expected {window_side} x {window_side}",
+        )
+    if msg.info.resolution != CELL_SIZE_M:
+        raise _reject(
+            DropReason.OUT_OF_RANGE, f"resolution {msg.info.resolution}, expected {CELL_SIZE_M}"
+        )
+    origin = (msg.info.origin.position.x, msg.info.origin.position.y)
+    if not all(math.isfinite(v) and -window_side <= v / CELL_SIZE_M <= GRID_SIZE for v in origin):
+        raise _reject(DropReason.OUT_OF_RANGE, f"window origin {origin} off the map")
+    grid = grid_from_msg(msg)
+    if not np.isin(grid, (UNKNOWN_CELL, FIRE_NOT_BURNING, FIRE_BURNING)).all():
+        raise _reject(DropReason.OUT_OF_RANGE, "visit values other than -1, 0 and 100")
+    return stamp, visit_from_msg(msg)
+
+
+def checked_episode(msg: Any, seed: int) -> EpisodeStatus:
+    """Status of the episode of ``seed`` (every node knows it), with a sane tick and flag."""
+    if msg.name != EPISODE_NAME:
+        raise _reject(DropReason.WRONG_FRAME, f"status name {msg.name!r}, expected {EPISODE_NAME}")
+    status = episode_from_msg(msg)
+    if status.values.get("seed") != str(seed):
+        raise _reject(
+            DropReason.WRONG_FRAME, f"episode seed {status.values.get('seed')!r}, expected {seed}"
+        )
+    try:
+        tick = status.tick
+    except ValueError:
+        raise _reject(DropReason.MALFORMED, f"tick {status.values.get('tick')!r}") from None
+    if tick < -1:
+        raise _reject(DropReason.OUT_OF_RANGE, f"tick {tick}")
+    if status.values.get("complete", "false") not in ("true", "false"):
+        raise _reject(DropReason.MALFORMED, f"complete {status.values['complete']!r}")
+    return status
+
+
+def checked_ack(msg: Any, reporters: set[str]) -> tuple[str, int]:
+    """Acknowledgement of a known reporter (``<name>`` or ``<name>/ready``) -> (name, stamp)."""
+    reporter, stamp = ack_from_msg(msg)
+    if reporter.removesuffix(READY_SUFFIX) not in reporters:
+        raise _reject(DropReason.WRONG_FRAME, f"unknown reporter {reporter!r}")
+    if stamp < 0:
+        raise _reject(DropReason.OUT_OF_RANGE, f"negative stamp {stamp} ns")
+    return reporter, stamp
+
+
+def checked_snapshot(msg: Any) -> BeliefSnapshot:
+    """Belief snapshot of a map-sized grid with finite, non-negative numbers."""
+    snapshot = snapshot_from_msg(msg)
+    if snapshot.believed.shape != (GRID_SIZE, GRID_SIZE):
+        raise _reject(DropReason.MALFORMED, f"snapshot grid {snapshot.believed.shape}")
+    numbers = (snapshot.time_s, snapshot.score)
+    if not (all(math.isfinite(v) and v >= 0 for v in numbers) and _ages_ok(snapshot.age_s)):
+        raise _reject(DropReason.OUT_OF_RANGE, "snapshot time, score or ages out of range")
+    return snapshot
+
+
+def checked_score(msg: Any) -> float:
+    """Cumulative score: finite and non-negative."""
+    score = float64_from_msg(msg)
+    if not (math.isfinite(score) and score >= 0):
+        raise _reject(DropReason.OUT_OF_RANGE, f"score {score}")
+    return score
+
+
+def _ages_ok(ages: np.ndarray) -> bool:
+    return bool(np.isfinite(ages).all() and (ages >= 0).all() and (ages <= AGE_LIMIT_S).all())
+
+
+__all__ = [
+    "AGE_LIMIT_S",
+    "HEADING_LIMIT_RAD",
+    "POSITION_LIMIT_M",
+    "checked_ack",
+    "checked_age_image",
+    "checked_episode",
+    "checked_fire_grid",
+    "checked_score",
+    "checked_snapshot",
+    "checked_stamped_state",
+    "checked_visit",
+]
