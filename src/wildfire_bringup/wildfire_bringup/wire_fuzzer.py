@@ -29,7 +29,11 @@ from typing import Any
 import numpy as np
 
 from wildfire_msgs_py import codecs, contract, system_codecs
-from wildfire_msgs_py.node_support import contract_publisher, contract_subscription
+from wildfire_msgs_py.node_support import (
+    contract_publisher,
+    contract_subscription,
+    interrupt_on_stop_signals,
+)
 from wildfire_msgs_py.runtime import Node, SingleThreadedExecutor, rclpy
 
 TICK_NS = 100_000_000
@@ -217,6 +221,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.aircraft < 1 or args.rate <= 0 or args.duration <= 0:
         parser.error("--aircraft, --rate and --duration must be positive")
+    interrupt_on_stop_signals()  # SIGTERM ends the flood like Ctrl-C, with the tally
     rclpy.init(args=[])
     node = WireFuzzer(args.aircraft, args.rate, replay=not args.no_replay)
     executor = SingleThreadedExecutor()
