@@ -287,6 +287,29 @@ def test_namespaces_of_a_dead_launcher_are_removed() -> None:
             hosts.remove_namespace(name)
 
 
+def _thread_namespace() -> int:
+    return os.stat("/proc/thread-self/ns/net").st_ino
+
+
+@needs_namespaces
+def test_a_failure_inside_the_hosts_removes_them(tmp_path: Path) -> None:
+    """In process, no DDS: this thread runs in host 0 with its variables, and a failure there
+    brings it back with its environment and deletes every namespace."""
+    root, environ = _thread_namespace(), dict(os.environ)
+    network = hosts.VirtualHosts(2, 3, tmp_path)
+    with pytest.raises(RuntimeError, match="a node died"), network:
+        assert _namespaces_of(os.getpid()) == sorted(
+            [network.bridge_namespace, *(h.namespace for h in network.hosts)]
+        )
+        host0 = hosts.NETNS_DIR / network.hosts[0].namespace
+        assert _thread_namespace() == os.stat(host0).st_ino != root
+        assert os.environ["CYCLONEDDS_URI"] == network.environment("launcher", {})["CYCLONEDDS_URI"]
+        raise RuntimeError("a node died")
+    assert _thread_namespace() == root and dict(os.environ) == environ
+    assert _namespaces_of(os.getpid()) == []
+    assert set(network.traffic) == {h.namespace for h in network.hosts}
+
+
 @needs_namespaces
 @pytest.mark.dds
 @pytest.mark.slow

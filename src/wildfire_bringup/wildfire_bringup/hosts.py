@@ -277,20 +277,8 @@ class VirtualHosts:
             self._add_namespace(host.namespace)
             # Created in the bridge namespace with its peer made directly in the host's: no end
             # of the pair ever exists in the root namespace.
-            _ip(
-                "-n",
-                bridge,
-                "link",
-                "add",
-                port,
-                "type",
-                "veth",
-                "peer",
-                "name",
-                HOST_DEVICE,
-                "netns",
-                host.namespace,
-            )
+            veth = f"link add {port} type veth peer name {HOST_DEVICE} netns {host.namespace}"
+            _ip("-n", bridge, *veth.split())
             _ip("-n", bridge, "link", "set", port, "master", BRIDGE_DEVICE)
             _ip("-n", bridge, "link", "set", port, "up")
             address = f"{host.address}/{PREFIX_LENGTH}"
@@ -330,8 +318,11 @@ class VirtualHosts:
         for name in (*CONFLICTING_HOST_VARIABLES, *environment):
             self._saved_environ.setdefault(name, os.environ.get(name))
         _update_environ(os.environ, environment)
-        self._root_fd = os.open("/proc/thread-self/ns/net", os.O_RDONLY | os.O_CLOEXEC)
-        fd = os.open(NETNS_DIR / target.namespace, os.O_RDONLY | os.O_CLOEXEC)
+        try:
+            self._root_fd = os.open("/proc/thread-self/ns/net", os.O_RDONLY | os.O_CLOEXEC)
+            fd = os.open(NETNS_DIR / target.namespace, os.O_RDONLY | os.O_CLOEXEC)
+        except OSError as error:
+            raise HostNetworkError(f"cannot open a network namespace: {error}") from None
         try:
             _setns(fd)
         finally:
