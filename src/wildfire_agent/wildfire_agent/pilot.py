@@ -1,34 +1,31 @@
 """One aircraft's decision, as its agent node takes it (no ROS).
 
-:class:`Pilot` wraps one policy for aircraft ``k`` of a team of ``n`` (``policy_names``): a
+:class:`Pilot` flies aircraft ``k`` of a team of ``n`` with any policy name
+(``policy_names.make_policy``, the factory the environment controllers use too): a
 receding-horizon planner (``rh`` or ``rh-paper``), uniformly random actions, or a TorchScript
-Q-network (``obs`` or ``belief`` input). It calls the very functions
+Q-network (``obs``, ``belief`` or a file). It calls the very functions
 ``wildfire_learning.env`` and ``wildfire_learning.controllers`` call, with the same shapes
 for the team arrays, so for the same inputs it picks the action the environment picks:
 
 * randomness (random actions, planner restarts) comes from ``generator(seed, AIRCRAFT, k)``;
 * the planner sees the whole team ``(1, n)``, ownship ``k`` and the others in
   ``pairwise.other_indices`` order, on the true fire map of the tick;
-* a Q-network gets a batch of one image and the ``K`` normalised pairwise states of the
-  ownship; with several other aircraft it sums the pairwise Q-values (``TorchScriptPolicy``).
+* a Q-network gets a batch of one image (``approaches``) and the ``K`` normalised pairwise
+  states of the ownship; with several other aircraft it sums the pairwise Q-values.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from wildfire_agent import pairwise, sensor
+from wildfire_agent import pairwise
+from wildfire_agent.approaches import belief_images, sensor_images
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
-from wildfire_agent.policy_names import BUILTIN_POLICIES, is_policy_file, planner_config
-from wildfire_agent.receding_horizon import (
-    RecedingHorizonConfig,
-    RecedingHorizonController,
-    replan_phases,
-)
+from wildfire_agent.policy_names import BUILTIN_POLICIES, make_policy
+from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonController
 from wildfire_agent.rewards import FireFieldMaps, ObservationRewardWeights, fire_field_maps
-from wildfire_sim.seeding import Stream, generator
 
 BUILTIN = BUILTIN_POLICIES
 
@@ -50,25 +47,9 @@ class Pilot:
         self.aircraft = aircraft
         self.n_aircraft = n_aircraft
         self.weights = weights or ObservationRewardWeights()
-        rng = generator(seed, Stream.AIRCRAFT, aircraft)
-        self.planner: RecedingHorizonController | None = None
-        self.random: RandomPolicy | None = None
-        self.network: TorchScriptPolicy | None = None
-        rh_config = planner_config(policy, rh_config)
-        if rh_config is not None:
-            phase = replan_phases(np.array([aircraft]), n_aircraft, rh_config.replan_every)
-            self.planner = RecedingHorizonController([rng], rh_config, self.weights, phase)
-            self.observation = "none"
-        elif policy == "random":
-            self.random = RandomPolicy([rng])
-            self.observation = "none"
-        elif is_policy_file(policy):
-            self.network = TorchScriptPolicy(policy)
-            self.observation = self.network.approach
-        else:
-            raise AgentConfigError(
-                f"policy {policy!r}: expected rh, rh-paper, random or a TorchScript .pt file"
-            )
+        factory = make_policy(policy, rh_config)
+        self.observation = factory.observation
+        self.policy = factory.build([seed], [aircraft], n_aircraft, self.weights)
         self._maps: FireFieldMaps | None = None
         self._maps_key: object = None
 
@@ -99,34 +80,25 @@ class Pilot:
         bool and ``age_s`` (H, W) float32 are needed by belief-based networks only.
         """
         k = self.aircraft
-        if self.random is not None:
-            return int(self.random.act()[0])
+        if isinstance(self.policy, RandomPolicy):
+            return int(self.policy.act()[0])
         team_2d = AircraftState(*(np.asarray(field)[None] for field in team))  # (1, n)
-        if self.planner is not None:
+        if isinstance(self.policy, RecedingHorizonController):
             others = pairwise.other_indices(self.n_aircraft)[k]
             own = AircraftState(*(field[0, k : k + 1] for field in team_2d))
             peers = AircraftState(*(field[0, others][None] for field in team_2d))
             maps = self.fire_maps(burning, fire_key)
-            return int(self.planner.act(own, peers, np.zeros(1, dtype=np.int64), maps)[0])
-        assert self.network is not None
+            return int(self.policy.act(own, peers, np.zeros(1, dtype=np.int64), maps)[0])
+        network: TorchScriptPolicy = self.policy
         states = pairwise.normalise(pairwise.pairwise_states(team_2d))[0, k : k + 1]
         if self.observation == "obs":
-            image = sensor.observe(burning[None], team_2d.x_m, team_2d.y_m, team_2d.heading_rad)[
-                0, k : k + 1, None
-            ].astype(np.float32)
+            image = sensor_images(burning[None], team_2d)[0, k : k + 1]
         else:
             if belief is None or age_s is None:
                 raise ValueError("a belief-based policy needs the belief and its ages")
-            from wildfire_belief.ego_image import ego_images
-
-            image = ego_images(
-                belief[None],
-                age_s[None],
-                team_2d.x_m[:, k : k + 1],
-                team_2d.y_m[:, k : k + 1],
-                team_2d.heading_rad[:, k : k + 1],
-            )[0]
-        return int(self.network.act(image, states)[0])
+            ownship = AircraftState(*(field[:, k : k + 1] for field in team_2d))
+            image = belief_images(belief[None], age_s[None], ownship)[0]
+        return int(network.act(image, states)[0])
 
 
 __all__ = ["BUILTIN", "Pilot"]

@@ -20,12 +20,11 @@ from typing import Any
 import numpy as np
 import torch
 
+from wildfire_agent.approaches import APPROACHES
 from wildfire_agent.errors import AgentConfigError
 
 POLICY_CARD_FILE = "wildfire_policy.json"
 """Name of the JSON card inside a TorchScript policy file."""
-APPROACHES = ("obs", "belief")
-"""Observation kinds a Q-network can take."""
 
 
 class RandomPolicy:
@@ -76,15 +75,44 @@ class TorchScriptPolicy:
 
     def q_values(self, images: np.ndarray, pair_states: np.ndarray) -> np.ndarray:
         """Summed pairwise Q-values (B, 2) from images (B, C, H, W) and states (B, K, 5)."""
-        image_tensor = torch.from_numpy(np.ascontiguousarray(images, dtype=np.float32))
-        state_tensor = torch.from_numpy(np.ascontiguousarray(pair_states, dtype=np.float32))
-        with torch.inference_mode():
-            q = self.module(image_tensor.to(self.device), state_tensor.to(self.device))
-        return q.sum(dim=1).cpu().numpy().astype(np.float64)
+        q = summed_q_values(self.module, images, pair_states, device=self.device)
+        return q.cpu().numpy().astype(np.float64)
 
     def act(self, images: np.ndarray, pair_states: np.ndarray) -> np.ndarray:
         """Greedy actions (B,) int64."""
-        return self.q_values(images, pair_states).argmax(axis=-1).astype(np.int64)
+        return greedy_actions(self.module, images, pair_states, device=self.device)
+
+
+def summed_q_values(
+    module: torch.nn.Module,
+    images: np.ndarray,
+    pair_states: np.ndarray,
+    channels_last: bool = False,
+    device: torch.device | None = None,
+) -> torch.Tensor:
+    """``sum_j Q(s_j, a)``, (B, 2) on the module's device, from images (B, C, H, W) and
+    pairwise states (B, K, 5): the one place a Q-network is queried for actions."""
+    if device is None:
+        device = next(module.parameters()).device
+    image_tensor = torch.from_numpy(np.ascontiguousarray(images, dtype=np.float32)).to(device)
+    if channels_last:  # a module trained in channels-last runs faster fed that way
+        image_tensor = image_tensor.contiguous(memory_format=torch.channels_last)
+    state_tensor = torch.from_numpy(np.ascontiguousarray(pair_states, dtype=np.float32))
+    with torch.inference_mode():
+        q: torch.Tensor = module(image_tensor, state_tensor.to(device))
+    return q.sum(dim=1)
+
+
+def greedy_actions(
+    module: torch.nn.Module,
+    images: np.ndarray,
+    pair_states: np.ndarray,
+    channels_last: bool = False,
+    device: torch.device | None = None,
+) -> np.ndarray:
+    """``argmax_a sum_j Q(s_j, a)``, (B,) int64 (on a tie the first action, -5 degrees)."""
+    q = summed_q_values(module, images, pair_states, channels_last, device)
+    return q.argmax(dim=1).cpu().numpy().astype(np.int64)
 
 
 def save_policy_card(extra: dict[str, Any]) -> dict[str, str]:
@@ -97,5 +125,7 @@ __all__ = [
     "POLICY_CARD_FILE",
     "RandomPolicy",
     "TorchScriptPolicy",
+    "greedy_actions",
     "save_policy_card",
+    "summed_q_values",
 ]

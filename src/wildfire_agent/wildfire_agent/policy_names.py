@@ -1,20 +1,38 @@
-"""What a policy name means: the one place that parses ``--policy`` and the ``policy`` parameter.
+"""What a policy name means, and the one factory that builds it: ``--policy``, the agent's
+``policy`` parameter and every controller of the training package go through
+:func:`make_policy`.
 
 * ``rh`` — our receding-horizon baseline (other aircraft predicted at constant bank);
 * ``rh-paper`` — the paper's uncoordinated receding horizon (each aircraft plans alone), the
   same planner settings otherwise (``receding_horizon.py`` documents the difference);
 * ``random`` — uniformly random actions;
-* ``obs`` / ``belief`` — the shipped Q-networks (``wildfire_learning.controllers`` finds
-  their files; an agent node is given the path);
+* ``obs`` / ``belief`` — the shipped Q-networks (``models/<name>_policy.pt``);
 * anything ending in ``.pt`` or naming an existing file — a TorchScript Q-network.
+
+A policy flies a set of aircraft: one for an agent node's pilot, every aircraft of every
+episode for an environment controller. Either way aircraft ``k`` of episode ``s`` draws its
+random numbers (random actions, planner restarts) from ``generator(s, AIRCRAFT, k)``, so an
+aircraft flies the same alone, in a batch of episodes, or as its own agent node.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 
-from wildfire_agent.receding_horizon import RecedingHorizonConfig
+import numpy as np
+import torch
+
+from wildfire_agent.errors import AgentConfigError
+from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
+from wildfire_agent.receding_horizon import (
+    RecedingHorizonConfig,
+    RecedingHorizonController,
+    replan_phases,
+)
+from wildfire_agent.rewards import ObservationRewardWeights
+from wildfire_sim.seeding import Stream, generator
 
 PLANNER_POLICIES = ("rh", "rh-paper")
 """Receding-horizon baselines."""
@@ -24,6 +42,11 @@ SHIPPED_POLICIES = ("obs", "belief")
 """Names of the shipped Q-network files."""
 EXPECTED_POLICIES = "rh, rh-paper, random, obs, belief or a TorchScript .pt file"
 """How an error message names what a policy may be."""
+MODELS_DIR = Path(__file__).resolve().parents[3] / "models"
+"""Shipped policies (``obs_policy.pt``, ``belief_policy.pt``) in the repository."""
+
+Policy = RecedingHorizonController | RandomPolicy | TorchScriptPolicy
+"""A policy flying a set of aircraft (what :meth:`PolicyFactory.build` returns)."""
 
 
 def planner_config(
@@ -40,11 +63,86 @@ def is_policy_file(policy: str) -> bool:
     return policy.endswith(".pt") or Path(policy).exists()
 
 
+def resolve_policy_path(name: str) -> Path:
+    """Path of a Q-network given as ``obs``/``belief`` (shipped) or a file path."""
+    if name in SHIPPED_POLICIES:
+        path = MODELS_DIR / f"{name}_policy.pt"
+        if not path.is_file():
+            raise AgentConfigError(
+                f"policy {name!r}: the shipped model {path} is missing "
+                "(train one with `wildfire train`, or use rh, rh-paper, random or a .pt file)"
+            )
+        return path
+    return Path(name)
+
+
+@dataclass(frozen=True)
+class PolicyFactory:
+    """A policy name made concrete: planner settings, a Q-network loaded once, or neither
+    (uniformly random actions)."""
+
+    planner: RecedingHorizonConfig | None = None
+    """Planner settings of ``rh`` / ``rh-paper``."""
+    network: TorchScriptPolicy | None = None
+    """The Q-network of ``obs``, ``belief`` or a file."""
+
+    @property
+    def observation(self) -> str:
+        """What the policy looks at: ``obs``, ``belief`` or ``none`` (poses and truth only)."""
+        return "none" if self.network is None else self.network.approach
+
+    def build(
+        self,
+        seeds: Sequence[int] | np.ndarray,
+        aircraft: Sequence[int] | np.ndarray,
+        n_aircraft: int,
+        weights: ObservationRewardWeights | None = None,
+    ) -> Policy:
+        """The policy flying ``aircraft`` (team indices, of ``n_aircraft``) of each episode of
+        ``seeds``, environment-major; ``weights`` are the planner's reward weights."""
+        if self.network is not None:
+            return self.network  # greedy: no randomness to seed
+        aircraft = np.asarray(aircraft, dtype=np.int64)
+        generators = [
+            generator(int(seed), Stream.AIRCRAFT, int(k)) for seed in seeds for k in aircraft
+        ]
+        if self.planner is None:
+            return RandomPolicy(generators)
+        # Aircraft re-plan at staggered decisions, whichever set of them a policy flies.
+        phases = replan_phases(aircraft, n_aircraft, self.planner.replan_every)
+        return RecedingHorizonController(
+            generators, self.planner, weights, np.tile(phases, len(seeds))
+        )
+
+
+def make_policy(
+    name: str,
+    rh_config: RecedingHorizonConfig | None = None,
+    device: str | torch.device = "cpu",
+) -> PolicyFactory:
+    """The policy called ``name`` (see the module docstring); ``rh_config`` sets T, tau and
+    restarts of the planners, ``device`` where a Q-network runs. Raises
+    :class:`AgentConfigError` for an unknown name or a bad file."""
+    planner = planner_config(name, rh_config)
+    if planner is not None:
+        return PolicyFactory(planner=planner)
+    if name == "random":
+        return PolicyFactory()
+    if name in SHIPPED_POLICIES or is_policy_file(name):
+        return PolicyFactory(network=TorchScriptPolicy(resolve_policy_path(name), device=device))
+    raise AgentConfigError(f"unknown policy {name!r}: expected {EXPECTED_POLICIES}")
+
+
 __all__ = [
     "BUILTIN_POLICIES",
     "EXPECTED_POLICIES",
+    "MODELS_DIR",
     "PLANNER_POLICIES",
     "SHIPPED_POLICIES",
+    "Policy",
+    "PolicyFactory",
     "is_policy_file",
+    "make_policy",
     "planner_config",
+    "resolve_policy_path",
 ]

@@ -1,10 +1,10 @@
 """Controllers that fly every aircraft of a :class:`WildfireVecEnv`.
 
-Each wraps one policy of ``wildfire_agent`` for the whole batch: a receding-horizon planner
-(``rh`` or ``rh-paper``), the random controller, or a TorchScript Q-network; policy names
-mean what ``wildfire_agent.policy_names`` says. Per-aircraft randomness comes
-from ``seeding.Stream.AIRCRAFT`` of the episode seed, so an aircraft flies the same in a
-batch of 20 episodes, alone, or as its own agent node.
+Each wraps, for the whole batch, the policy that ``wildfire_agent.policy_names.make_policy``
+builds from a policy name (the factory an agent's pilot uses too): a receding-horizon planner
+(``rh`` or ``rh-paper``), the random controller, or a TorchScript Q-network. Per-aircraft
+randomness comes from ``seeding.Stream.AIRCRAFT`` of the episode seed, so an aircraft flies
+the same in a batch of 20 episodes, alone, or as its own agent node.
 """
 
 from __future__ import annotations
@@ -14,28 +14,22 @@ from typing import Protocol
 
 import numpy as np
 import torch
+from torch import nn
 
 from wildfire_agent.dynamics import AircraftState
-from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.pairwise import other_indices
-from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
+from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy, greedy_actions
 from wildfire_agent.policy_names import (
     BUILTIN_POLICIES,
-    EXPECTED_POLICIES,
+    MODELS_DIR,
     SHIPPED_POLICIES,
-    is_policy_file,
-    planner_config,
+    Policy,
+    PolicyFactory,
+    make_policy,
+    resolve_policy_path,
 )
-from wildfire_agent.receding_horizon import (
-    RecedingHorizonConfig,
-    RecedingHorizonController,
-    replan_phases,
-)
+from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonController
 from wildfire_learning.env import WildfireVecEnv
-from wildfire_sim.seeding import Stream, generator
-
-MODELS_DIR = Path(__file__).resolve().parents[3] / "models"
-"""Shipped policies (``obs_policy.pt``, ``belief_policy.pt``) in the repository."""
 
 
 class Controller(Protocol):
@@ -51,11 +45,6 @@ class Controller(Protocol):
         """Actions (E, N) int64."""
 
 
-def aircraft_generators(seeds: np.ndarray, n_aircraft: int) -> list[np.random.Generator]:
-    """One generator per aircraft, environment-major: aircraft k of seed s -> (s, AIRCRAFT, k)."""
-    return [generator(int(seed), Stream.AIRCRAFT, k) for seed in seeds for k in range(n_aircraft)]
-
-
 def flatten_aircraft(state: AircraftState) -> AircraftState:
     """(E, N) poses as (E * N,)."""
     return AircraftState(*(field.reshape(-1) for field in state))
@@ -67,6 +56,12 @@ def others_of(state: AircraftState) -> AircraftState:
     return AircraftState(*(field[:, others].reshape(-1, others.shape[1]) for field in state))
 
 
+def build_for(factory: PolicyFactory, env: WildfireVecEnv) -> Policy:
+    """The factory's policy for every aircraft of every episode of ``env`` (after a reset)."""
+    n = env.config.n_aircraft
+    return factory.build(env.seeds, np.arange(n), n, env.config.obs_weights)
+
+
 class RandomController:
     """Uniformly random actions."""
 
@@ -76,7 +71,9 @@ class RandomController:
         self.policy: RandomPolicy | None = None
 
     def reset(self, env: WildfireVecEnv) -> None:
-        self.policy = RandomPolicy(aircraft_generators(env.seeds, env.config.n_aircraft))
+        policy = build_for(PolicyFactory(), env)
+        assert isinstance(policy, RandomPolicy)
+        self.policy = policy
 
     def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
         assert self.policy is not None, "reset() first"
@@ -94,13 +91,9 @@ class RecedingHorizonEnvController:
         self.planner: RecedingHorizonController | None = None
 
     def reset(self, env: WildfireVecEnv) -> None:
-        n = env.config.n_aircraft
-        self.planner = RecedingHorizonController(
-            aircraft_generators(env.seeds, n),
-            self.config,
-            env.config.obs_weights,
-            phases=np.tile(replan_phases(np.arange(n), n, self.config.replan_every), env.num_envs),
-        )
+        planner = build_for(PolicyFactory(planner=self.config), env)
+        assert isinstance(planner, RecedingHorizonController)
+        self.planner = planner
 
     def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
         assert self.planner is not None, "reset() first"
@@ -121,8 +114,13 @@ class QNetworkController:
     action. Evaluation then flies bit-for-bit what the distributed system flies.
     """
 
-    def __init__(self, path: str | Path, device: str | torch.device = "cpu") -> None:
-        self.policy = TorchScriptPolicy(path, device=device)
+    def __init__(
+        self, path: str | Path | TorchScriptPolicy, device: str | torch.device = "cpu"
+    ) -> None:
+        if isinstance(path, TorchScriptPolicy):
+            self.policy = path
+        else:
+            self.policy = TorchScriptPolicy(path, device=device)
         self.observation = self.policy.approach
 
     def reset(self, env: WildfireVecEnv) -> None:
@@ -137,17 +135,31 @@ class QNetworkController:
         return actions
 
 
-def resolve_policy_path(name: str) -> Path:
-    """Path of a policy given as ``obs``/``belief`` (shipped) or a file path."""
-    if name in SHIPPED_POLICIES:
-        path = MODELS_DIR / f"{name}_policy.pt"
-        if not path.is_file():
-            raise AgentConfigError(
-                f"policy {name!r}: the shipped model {path} is missing "
-                "(train one with `wildfire train`, or use rh, rh-paper, random or a .pt file)"
-            )
-        return path
-    return Path(name)
+class GreedyController:
+    """The network being trained as an evaluation controller, all aircraft in one batch.
+
+    (Deployment evaluates each ownship alone, see :class:`QNetworkController`; a batch may
+    pick other kernels and so differ in the last bits — fine for a learning curve.)
+    """
+
+    def __init__(self, model: nn.Module, observation: str, channels_last: bool = False) -> None:
+        self.model = model
+        self.observation = observation
+        self.channels_last = channels_last
+
+    def reset(self, env: WildfireVecEnv) -> None:
+        pass
+
+    def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
+        images, states = observations["image"], observations["state"]
+        e, n = images.shape[:2]
+        actions = greedy_actions(
+            self.model,
+            images.reshape(e * n, *images.shape[2:]),
+            states.reshape(e * n, *states.shape[2:]),
+            self.channels_last,
+        )
+        return actions.reshape(e, n)
 
 
 def make_controller(
@@ -155,27 +167,27 @@ def make_controller(
     rh_config: RecedingHorizonConfig | None = None,
     device: str | torch.device = "cpu",
 ) -> Controller:
-    """Controller for a policy name (``wildfire_agent.policy_names``); ``rh_config`` sets T,
-    tau and restarts of the planners, ``device`` where a Q-network runs."""
-    planner = planner_config(policy, rh_config)
-    if planner is not None:
-        return RecedingHorizonEnvController(planner)
-    if policy == "random":
-        return RandomController()
-    if policy in SHIPPED_POLICIES or is_policy_file(policy):
-        return QNetworkController(resolve_policy_path(policy), device)
-    raise AgentConfigError(f"unknown policy {policy!r}: expected {EXPECTED_POLICIES}")
+    """Controller for any policy name (``wildfire_agent.policy_names.make_policy``);
+    ``rh_config`` sets T, tau and restarts of the planners, ``device`` where a Q-network runs."""
+    factory = make_policy(policy, rh_config, device)
+    if factory.network is not None:
+        return QNetworkController(factory.network)
+    if factory.planner is not None:
+        return RecedingHorizonEnvController(factory.planner)
+    return RandomController()
 
 
+# Policy names are re-exported for callers that import them from here (cli/run.py, bench).
 __all__ = [
     "BUILTIN_POLICIES",
     "MODELS_DIR",
     "SHIPPED_POLICIES",
     "Controller",
+    "GreedyController",
     "QNetworkController",
     "RandomController",
     "RecedingHorizonEnvController",
-    "aircraft_generators",
+    "build_for",
     "make_controller",
     "resolve_policy_path",
 ]

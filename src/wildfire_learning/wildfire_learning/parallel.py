@@ -40,8 +40,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from wildfire_agent.policy_names import BUILTIN_POLICIES, PLANNER_POLICIES
-from wildfire_learning.controllers import make_controller, resolve_policy_path
+from wildfire_agent.policy_names import BUILTIN_POLICIES, PLANNER_POLICIES, resolve_policy_path
+from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import EvaluationSummary, evaluate

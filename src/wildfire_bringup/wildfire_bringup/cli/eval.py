@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from wildfire_agent.policy_names import BUILTIN_POLICIES, resolve_policy_path
 from wildfire_bringup.cli.common import (
     UserError,
     add_device_argument,
@@ -14,7 +15,7 @@ from wildfire_bringup.cli.common import (
     scenario_settings,
 )
 from wildfire_bringup.cli.progress import progress_bar
-from wildfire_learning.controllers import BUILTIN_POLICIES, make_controller, resolve_policy_path
+from wildfire_learning.controllers import make_controller
 from wildfire_learning.device import resolve_device
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate

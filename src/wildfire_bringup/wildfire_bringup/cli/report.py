@@ -11,6 +11,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from wildfire_agent.policy_names import BUILTIN_POLICIES, resolve_policy_path
 from wildfire_bringup.cli.common import (
     UserError,
     add_duration_argument,
@@ -21,7 +22,7 @@ from wildfire_bringup.cli.common import (
     print_json,
 )
 from wildfire_bringup.cli.progress import progress_bar
-from wildfire_learning.controllers import BUILTIN_POLICIES, make_controller, resolve_policy_path
+from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, EvaluationSummary, evaluate
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
