@@ -1,4 +1,5 @@
-"""Figures in the style of the paper: fire propagation, and flight paths over the fire."""
+"""Figures in the style of the paper: fire propagation, flight paths over the fire, and the
+learning curve of a training run."""
 
 from __future__ import annotations
 
@@ -95,4 +96,24 @@ def plot_episode(
     plt.close(fig)
 
 
-__all__ = ["fire_state_image", "plot_episode", "plot_fire_propagation"]
+def plot_learning_curve(
+    rows: Sequence[dict[str, float]], baseline: float | None, title: str, path: str | Path
+) -> None:
+    """Score (mean +- sem per evaluation) vs thousands of training iterations, with the
+    receding-horizon score dashed when known (the paper's figure)."""
+    x = np.array([r["iteration"] for r in rows]) / 1000.0
+    y = np.array([r["score_mean"] for r in rows])
+    err = np.array([r["score_sem"] for r in rows])
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.errorbar(x, y, yerr=err, marker="o", ms=3, capsize=2, color="black", label=title)
+    if baseline is not None:
+        ax.axhline(baseline, ls="--", color="grey", label="receding horizon")
+    ax.set_xlabel("Thousands of Training Iterations")
+    ax.set_ylabel("Average Reward Accumulated")
+    ax.legend(loc="best")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+__all__ = ["fire_state_image", "plot_episode", "plot_fire_propagation", "plot_learning_curve"]

@@ -10,7 +10,6 @@ goes to ``--out`` (default ``<run-dir>/<approach>_policy.pt``) with its card as 
 from __future__ import annotations
 
 import argparse
-import itertools
 import json
 import sys
 import time
@@ -27,47 +26,34 @@ from wildfire_bringup.cli.common import (
     print_json,
     unit_interval,
 )
-from wildfire_learning.architectures import ARCHITECTURES
+from wildfire_learning.checkpoint import CHECKPOINT_FILE, load_checkpoint, upgrade_saved_config
 from wildfire_learning.device import resolve_device
-from wildfire_learning.dqn import (
-    POSITIVE_INT_FIELDS,
-    RunOptions,
-    Status,
-    TrainConfig,
-    config_from_dict,
-    train,
-    upgrade_saved_config,
-)
+from wildfire_learning.dqn import RunOptions, Status, TrainConfig, config_from_dict, train
 from wildfire_msgs_py.node_support import interrupt_on_stop_signals
 
-# Option name of each TrainConfig field whose CLI name differs from the field.
-OPTION_NAMES = {"learning_rate": "lr", "max_wind": "max-wind"}
-SHORT_HELP_FIELDS = {"approach", "arch", "shapes", "eval_shapes"}
 
-
-def _option(name: str) -> str:
-    return "--" + OPTION_NAMES.get(name, name.replace("_", "-"))
-
-
-def _field_docs() -> dict[str, str]:
-    """Field docstrings of TrainConfig (the attribute docstrings in its source)."""
-    import ast
-    import inspect
-
-    import wildfire_learning.dqn as dqn
-
-    tree = ast.parse(inspect.getsource(dqn.TrainConfig))
-    docs: dict[str, str] = {}
-    body = tree.body[0].body  # type: ignore[attr-defined]
-    for node, after in itertools.pairwise(body):
-        if (
-            isinstance(node, ast.AnnAssign)
-            and isinstance(node.target, ast.Name)
-            and isinstance(after, ast.Expr)
-            and isinstance(after.value, ast.Constant)
-        ):
-            docs[node.target.id] = str(after.value.value)
-    return docs
+def add_config_options(parser: argparse.ArgumentParser) -> None:
+    """One option per :class:`TrainConfig` field, from the field's type and metadata."""
+    for spec in fields(TrainConfig):
+        meta = spec.metadata
+        default = spec.default
+        option = "--" + meta.get("name", spec.name.replace("_", "-"))
+        # argparse %-formats help strings: escape the texts' own percent signs.
+        help_text = f"{meta['help']} (default: {default})".replace("%", "%%")
+        # Defaults stay None so a resumed run keeps its saved values unless overridden.
+        common: dict[str, Any] = {"dest": spec.name, "default": None, "help": help_text}
+        if "choices" in meta:
+            parser.add_argument(option, choices=meta["choices"], **common)
+        elif isinstance(default, bool):
+            parser.add_argument(option, action=argparse.BooleanOptionalAction, **common)
+        elif isinstance(default, tuple):
+            parser.add_argument(option, nargs="+", metavar="SHAPE", **common)
+        elif isinstance(default, float):
+            kind = unit_interval if meta.get("unit") else positive_float
+            parser.add_argument(option, type=kind, **common)
+        else:
+            kind = positive_int if meta["min"] >= 1 else non_negative_int
+            parser.add_argument(option, type=kind, **common)
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -79,32 +65,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "evaluation on held-out seeds, learning curve, checkpoints (--resume) and a "
         "TorchScript export with a JSON card.",
     )
-    docs = _field_docs()
-    defaults = TrainConfig()
-    for spec in fields(TrainConfig):
-        default = getattr(defaults, spec.name)
-        # argparse %-formats help strings: escape the docstrings' own percent signs.
-        help_text = f"{docs.get(spec.name, '')} (default: {default})".replace("%", "%%")
-        option = _option(spec.name)
-        common: dict[str, Any] = {"dest": spec.name, "default": None, "help": help_text}
-        # Defaults stay None so a resumed run keeps its saved values unless overridden.
-        if spec.name == "approach":
-            parser.add_argument(option, choices=("obs", "belief"), **common)
-        elif spec.name == "arch":
-            parser.add_argument(option, choices=ARCHITECTURES, **common)
-        elif spec.name in ("shapes", "eval_shapes"):
-            parser.add_argument(option, nargs="+", metavar="SHAPE", **common)
-        elif spec.name in ("channels_last", "double_q"):
-            parser.add_argument(option, action=argparse.BooleanOptionalAction, **common)
-        elif spec.name in ("start_e", "end_e", "max_wind"):
-            parser.add_argument(option, type=unit_interval, **common)
-        elif isinstance(default, float):
-            kind = unit_interval if spec.name == "gamma" else positive_float
-            parser.add_argument(option, type=kind, **common)
-        elif spec.name in POSITIVE_INT_FIELDS:
-            parser.add_argument(option, type=positive_int, **common)
-        else:
-            parser.add_argument(option, type=non_negative_int, **common)
+    add_config_options(parser)
     parser.add_argument("--run-dir", type=Path, help="run directory (checkpoints, curve)")
     parser.add_argument("--out", type=Path, metavar="FILE.pt", help="exported policy file")
     parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
@@ -179,14 +140,12 @@ def run(args: argparse.Namespace) -> int:
     if args.resume:
         if args.run_dir is None:
             raise UserError("--resume: give the --run-dir of the run to continue")
-        from wildfire_learning.dqn import load_checkpoint
-
         saved = load_checkpoint(args.run_dir)["config"]
     config = build_config(args, saved).validate()
     if args.from_bag and not args.online and config.iterations == 0:
         raise UserError("--from-bag: give --iterations K (offline training runs K iterations)")
     run_dir = args.run_dir or Path("runs") / f"{config.approach}-{config.arch}-s{config.seed}"
-    if not args.resume and (run_dir / "checkpoint.pt").exists():
+    if not args.resume and (run_dir / CHECKPOINT_FILE).exists():
         raise UserError(f"--run-dir {run_dir}: holds a run already (use --resume or a new dir)")
     out = args.out or run_dir / f"{config.approach}_policy.pt"
     if out.suffix != ".pt":
@@ -314,4 +273,4 @@ class _progress:
             self.progress.__exit__(*exc)
 
 
-__all__ = ["add_parser", "build_config", "run"]
+__all__ = ["add_config_options", "add_parser", "build_config", "run"]
