@@ -175,6 +175,15 @@ def _stop(process: subprocess.Popen[str]) -> None:
             process.kill()
 
 
+def _wait_for_line(log: Path, text: str, timeout: float = 60.0) -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if log.exists() and text in log.read_text():
+            return
+        time.sleep(0.2)
+    raise AssertionError(f"{log.name}: no {text!r} within {timeout:.0f} s")
+
+
 def _pid_of(logs: Path, node: str, timeout: float = 20.0) -> int:
     """PID of a node started by the launcher (found by its log file and command line)."""
     end = time.monotonic() + timeout
@@ -218,13 +227,22 @@ def test_killed_node_is_named_and_the_bag_is_finalized(
 
 @pytest.mark.slow
 def test_respawned_nodes_carry_on(tmp_path: Path, dds_env: dict[str, str]) -> None:
+    from wildfire_msgs_py.bag import read_messages
+    from wildfire_msgs_py.codecs import score_from_msg, time_from_msg
+
+    bag = tmp_path / "bag"
     process, logs = _start_run(
-        tmp_path, dds_env, ["--realtime", "--respawn", "--duration", "12", "--json"]
+        tmp_path,
+        dds_env,
+        ["--realtime", "--respawn", "--duration", "20", "--json", "--record", str(bag)],
     )
     try:
-        os.kill(_pid_of(logs, "uav1"), signal.SIGKILL)
+        # Mid-flight: the shared belief the new aggregator must take over is 3 s old.
+        _wait_for_line(logs / "fire_simulator.log", "every reporter is ready")
         time.sleep(3.0)
+        os.kill(_pid_of(logs, "uav1"), signal.SIGKILL)
         os.kill(_pid_of(logs, "belief_aggregator"), signal.SIGKILL)
+        killed_ns = time.time_ns()
         stdout, stderr = process.communicate(timeout=60)
     finally:
         _stop(process)
@@ -232,6 +250,18 @@ def test_respawned_nodes_carry_on(tmp_path: Path, dds_env: dict[str, str]) -> No
     summary = json.loads(stdout)
     assert summary["respawns"] == {"uav1": 1, "belief_aggregator": 1}
     assert "respawning" in stderr
+    # The new aggregator took the shared belief (and score) over from the agents' copies ...
+    assert "recovered the shared belief of t =" in (logs / "belief_aggregator.log").read_text()
+    scores, uav1_stamps = [], []
+    for message in read_messages(bag, topics=["/wildfire/score", "/uav1/state_stamped"]):
+        if message.topic == "/wildfire/score":
+            scores.append(score_from_msg(message.message))
+        else:
+            uav1_stamps.append(time_from_msg(message.message.header.stamp))
+    # ... so the team score never fell back to zero, and the recording holds the whole run:
+    # the killed nodes' messages before the kill and the respawned ones' after it.
+    assert scores == sorted(scores) and scores[-1] > 0
+    assert min(uav1_stamps) < killed_ns < max(uav1_stamps)
 
 
 @pytest.mark.parametrize(

@@ -91,6 +91,7 @@ class BeliefAggregatorNode(Node):
         self.realtime_queue: list[VisitWindow] = []
         self.input_guard = InputGuard(self.get_logger().warning)
         self.status_tick = -1
+        self.status_seen = False
         self.final = False
         self.ready_sent = False
         self.recovering_since: float | None = None
@@ -166,8 +167,12 @@ class BeliefAggregatorNode(Node):
     # --- callbacks ----------------------------------------------------------------------------
 
     def startup_timer_callback(self) -> None:
-        """Start once every agent's visit publisher is matched (visits are volatile)."""
-        if self.started:
+        """Start once every agent's visit publisher is matched (visits are volatile).
+
+        Not before the (latched) episode status is in: it tells a fresh start (waiting or
+        tick 0) from a restart into a running episode, which first recovers the belief.
+        """
+        if self.started or not self.status_seen:
             return
         if self.recovering_since is not None:
             waited = time.monotonic() - self.recovering_since
@@ -186,6 +191,7 @@ class BeliefAggregatorNode(Node):
 
     def episode_callback(self, msg: Any) -> None:
         status = checked_episode(msg, self.seed)
+        self.status_seen = True
         if status.phase == "waiting":
             return
         check_status_tick(status.tick, self.status_tick, self.mode == "lockstep", AHEAD_TICKS)
