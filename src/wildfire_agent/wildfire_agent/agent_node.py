@@ -38,6 +38,7 @@ from wildfire_agent import dynamics
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.pilot import Pilot
+from wildfire_agent.policy_names import BUILTIN_POLICIES, EXPECTED_POLICIES
 from wildfire_agent.receding_horizon import RecedingHorizonConfig
 from wildfire_belief.visits import visit_windows, window_values
 from wildfire_msgs_py import contract
@@ -79,7 +80,12 @@ from wildfire_msgs_py.wire_checks import (
     checked_score,
     checked_stamped_state,
 )
-from wildfire_sim.episode import DECISION_PERIOD_NS, DECISIONS_PER_FIRE_STEP, fire_step_tick
+from wildfire_sim.episode import (
+    DECISION_PERIOD_NS,
+    DECISIONS_PER_FIRE_STEP,
+    EPISODE_DEFAULTS,
+    fire_step_tick,
+)
 
 PERIOD_S = DECISION_PERIOD_NS / 1e9
 DEADLINE_EVERY_DECISIONS = 10
@@ -96,8 +102,10 @@ MAX_BANK_RAD = float(dynamics.MAX_BANK_STEPS * dynamics.BANK_STEP_RAD)
 PARAMETERS = (
     ParamSpec("aircraft", 0, "index k of this aircraft (namespace /uavK)", 0, 63),
     ParamSpec("n_aircraft", 2, "aircraft in the team", 1, 64),
-    ParamSpec("policy", "rh", "rh, rh-paper, random, or the path of a TorchScript policy (.pt)"),
-    ParamSpec("seed", 0, "episode seed (the aircraft's random stream)", 0, 2**31 - 1),
+    ParamSpec("policy", "rh", EXPECTED_POLICIES),
+    ParamSpec(
+        "seed", EPISODE_DEFAULTS.seed, "episode seed (the aircraft's random stream)", 0, 2**31 - 1
+    ),
     ParamSpec("start_x", 500.0, "start position east, m", -10_000.0, 11_000.0),
     ParamSpec("start_y", 500.0, "start position north, m", -10_000.0, 11_000.0),
     ParamSpec("start_heading", 0.0, "start heading, rad counter-clockwise from east", -7.0, 7.0),
@@ -165,7 +173,7 @@ class AgentNode(Node):
         self.name_tag = f"uav{self.k}"
         if self.k >= self.n:
             raise AgentConfigError(f"aircraft {self.k}: expected 0..{self.n - 1} (n_aircraft)")
-        if p["policy"].endswith(".pt"):
+        if p["policy"] not in BUILTIN_POLICIES:  # a Q-network (obs, belief or a .pt file)
             import torch
 
             torch.set_num_threads(p["torch_threads"])

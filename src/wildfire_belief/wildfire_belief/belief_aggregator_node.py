@@ -50,7 +50,12 @@ from wildfire_msgs_py.node_support import (
 from wildfire_msgs_py.runtime import Node
 from wildfire_msgs_py.system_codecs import READY_SUFFIX, ack_to_msg, age_image_to_msg
 from wildfire_msgs_py.wire_checks import checked_episode, checked_snapshot, checked_visit
-from wildfire_sim.episode import DECISION_PERIOD_NS, DECISIONS_PER_FIRE_STEP, initial_fire
+from wildfire_sim.episode import (
+    DECISION_PERIOD_NS,
+    DECISIONS_PER_FIRE_STEP,
+    EPISODE_DEFAULTS,
+    initial_fire,
+)
 from wildfire_sim.errors import FireConfigError
 from wildfire_sim.shapes import Shape
 
@@ -63,8 +68,12 @@ REALTIME_AHEAD_NS = 10_000_000_000
 """Real time: visits stamped more than 10 s past the node clock are refused."""
 PARAMETERS = (
     ParamSpec("n_aircraft", 2, "aircraft uav0..uav{n-1} whose visits are merged", 1, 64),
-    ParamSpec("seed", 0, "episode seed (fixes the ignition seed's fuel)", 0, 2**31 - 1),
-    ParamSpec("shape", "circular", "ignition shape", choices=tuple(s.value for s in Shape)),
+    ParamSpec(
+        "seed", EPISODE_DEFAULTS.seed, "episode seed (fixes the ignition seed's fuel)", 0, 2**31 - 1
+    ),
+    ParamSpec(
+        "shape", EPISODE_DEFAULTS.shape, "ignition shape", choices=tuple(s.value for s in Shape)
+    ),
     ParamSpec(
         "mode", "lockstep", "lockstep (sim time) or realtime", choices=("lockstep", "realtime")
     ),

@@ -17,10 +17,9 @@ simulator's parameters (``config/wildfire.yaml`` is tested to agree with it).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from wildfire_sim.defaults import EPISODE_DEFAULTS, EpisodeDefaults
 from wildfire_sim.fire import BatchedFire, FireParams
 from wildfire_sim.shapes import Shape, shape_masks
 
@@ -29,32 +28,6 @@ DECISIONS_PER_FIRE_STEP = 25
 DECISION_PERIOD_NS = 100_000_000
 """One decision is 0.1 s; tick ``k`` happens at ``k * DECISION_PERIOD_NS`` of sim time."""
 NS_PER_S = 1_000_000_000
-
-
-@dataclass(frozen=True)
-class EpisodeDefaults:
-    """Default scenario of an episode; fields are named as the fire simulator's parameters."""
-
-    seed: int = 0
-    """Episode seed (fuel and fire randomness)."""
-    shape: str = "circular"
-    """Ignition shape."""
-    wind_x: float = 0.0
-    """Fixed dimensionless wind towards east (a single run; evaluation draws it per seed)."""
-    wind_y: float = 0.0
-    """Fixed dimensionless wind towards north."""
-    max_wind: float = 0.8
-    """Bound of each wind component when it is drawn per seed (the training range)."""
-    duration_s: float = 400.0
-    """Flight time limit."""
-    preburn_steps: int = 30
-    """Fire steps before the aircraft start."""
-    border_cells: int = 6
-    """The episode ends when fire comes this close to the map edge."""
-
-
-EPISODE_DEFAULTS = EpisodeDefaults()
-"""The one copy of the episode defaults (environment, fire simulator, CLIs)."""
 
 
 def decisions_in(duration_s: float) -> int:

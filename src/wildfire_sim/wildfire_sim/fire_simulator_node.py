@@ -43,22 +43,29 @@ from wildfire_msgs_py.node_support import (
 from wildfire_msgs_py.runtime import Node
 from wildfire_msgs_py.system_codecs import READY_SUFFIX, episode_to_msg
 from wildfire_msgs_py.wire_checks import checked_ack
-from wildfire_sim.episode import DECISION_PERIOD_NS, FireEpisode
+from wildfire_sim.episode import DECISION_PERIOD_NS, EPISODE_DEFAULTS, FireEpisode, decisions_in
 from wildfire_sim.errors import FireConfigError
 from wildfire_sim.shapes import Shape
 
 MODES = ("lockstep", "realtime")
+D = EPISODE_DEFAULTS
 NAME = "fire_simulator"
 STATUS_EVERY_TICKS = 10
 """The node's status goes to ``/diagnostics`` once a second of flight and at the end."""
 PARAMETERS = (
-    ParamSpec("seed", 0, "episode seed (fuel and fire randomness)", 0, 2**31 - 1),
-    ParamSpec("shape", "circular", "ignition shape", choices=tuple(s.value for s in Shape)),
-    ParamSpec("wind_x", 0.0, "dimensionless wind towards east", -1.0, 1.0),
-    ParamSpec("wind_y", 0.0, "dimensionless wind towards north", -1.0, 1.0),
-    ParamSpec("duration_s", 400.0, "flight time limit in seconds", 0.1, 100_000.0),
-    ParamSpec("preburn_steps", 30, "fire steps before the aircraft start", 0, 1000),
-    ParamSpec("border_cells", 6, "the episode ends when fire is this close to the edge", 0, 49),
+    ParamSpec("seed", D.seed, "episode seed (fuel and fire randomness)", 0, 2**31 - 1),
+    ParamSpec("shape", D.shape, "ignition shape", choices=tuple(s.value for s in Shape)),
+    ParamSpec("wind_x", D.wind_x, "dimensionless wind towards east", -1.0, 1.0),
+    ParamSpec("wind_y", D.wind_y, "dimensionless wind towards north", -1.0, 1.0),
+    ParamSpec("duration_s", D.duration_s, "flight time limit in seconds", 0.1, 100_000.0),
+    ParamSpec("preburn_steps", D.preburn_steps, "fire steps before the aircraft start", 0, 1000),
+    ParamSpec(
+        "border_cells",
+        D.border_cells,
+        "the episode ends when fire is this close to the edge",
+        0,
+        49,
+    ),
     ParamSpec("mode", "lockstep", "lockstep (sim time, /clock) or realtime", choices=MODES),
     ParamSpec("n_aircraft", 2, "aircraft uav0..uav{n-1} that report in lockstep", 1, 64),
     ParamSpec("extra_reporters", "", "comma-separated further lockstep reporters"),
@@ -87,7 +94,7 @@ class FireSimulatorNode(Node):
             p["seed"],
             p["shape"],
             (p["wind_x"], p["wind_y"]),
-            max_decisions=round(p["duration_s"] * 10),
+            max_decisions=decisions_in(p["duration_s"]),
             preburn_steps=p["preburn_steps"],
             border_cells=p["border_cells"],
         )

@@ -33,15 +33,20 @@ COMMAND_MODULES = (
 )
 
 
-def build_parser() -> ArgumentParser:
-    """Build the top-level parser with every available sub-command."""
+def build_parser(only: str | None = None) -> ArgumentParser:
+    """Build the top-level parser with every available sub-command (or just ``only``).
+
+    Each command module imports what its command needs (torch, the training package, ...):
+    ``wildfire topic list`` must not pay for ``wildfire train``'s imports, so a command line
+    naming a command builds that command's parser alone.
+    """
     parser = ArgumentParser(
         prog="wildfire",
         description="Decentralized wildfire surveillance with autonomous aircraft "
         "(ROS 2 + deep RL).",
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in COMMAND_MODULES:
+    for name in COMMAND_MODULES if only not in COMMAND_MODULES else (only,):
         try:
             module = importlib.import_module(f"wildfire_bringup.cli.{name}")
         except ModuleNotFoundError as error:
@@ -61,8 +66,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     # the fire benchmark at batch 16 ran at 1 000 instead of 20 000 env-steps/s with two
     # threads next to a training job). Child processes (nodes) inherit the setting.
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(words[0] if words else None)
+    args = parser.parse_args(words)
     try:
         return int(args.handler(args) or 0)
     except USER_ERRORS as error:

@@ -9,6 +9,8 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from wildfire_sim.defaults import EPISODE_DEFAULTS
+
 
 class UserError(Exception):
     """A mistake in what the user asked for; reported as one line, exit status 2."""
@@ -127,13 +129,14 @@ def add_episode_arguments(
 
 
 def add_max_wind_argument(parser: argparse.ArgumentParser | argparse._ActionsContainer) -> None:
-    """``--max-wind W`` (default None: the environment's 0.8)."""
+    """``--max-wind W`` (default None: the environment's bound)."""
     parser.add_argument(
         "--max-wind",
         type=unit_interval,
         default=None,
         metavar="W",
-        help="bound W of each random wind component (default 0.8, the training range); a "
+        help="bound W of each random wind component (default "
+        f"{EPISODE_DEFAULTS.max_wind:g}, the training range); a "
         "seed keeps its draw, so a smaller W flies the same episodes under weaker wind",
     )
 
@@ -143,7 +146,7 @@ def add_duration_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration",
         type=positive_float,
-        default=400.0,
+        default=EPISODE_DEFAULTS.duration_s,
         metavar="SEC",
         help="longest flight in seconds (the fire reaching the border ends it too)",
     )

@@ -6,7 +6,8 @@ end of the episode or on Ctrl-C (the recording is always finalized) and prints a
 ``--fast`` (the default) runs in lockstep on sim time and flies exactly what
 ``wildfire eval --episodes 1`` flies for the same seed; ``--realtime`` runs on wall clocks.
 ``--hosts K`` spreads the nodes over K virtual hosts (network namespaces joined by a private
-bridge, see :mod:`wildfire_bringup.hosts`), which the run creates and removes.
+bridge, see :mod:`wildfire_bringup.hosts`), which the run creates and removes; ``--netem`` and
+``--partition`` inject network faults there (:mod:`wildfire_bringup.netfaults`).
 """
 
 from __future__ import annotations
@@ -79,6 +80,20 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         help="run on K virtual hosts (Linux network namespaces on a private bridge; root): "
         "fire simulator, aggregator and agents on different hosts",
     )
+    parser.add_argument(
+        "--netem",
+        metavar="SPEC",
+        help="with --hosts: impair every host's link, tc-netem style, e.g. "
+        "'delay 20ms 10ms loss 2%%' (uniform delay 10 to 30 ms, 2 %% of frames lost)",
+    )
+    parser.add_argument(
+        "--partition",
+        action="append",
+        default=[],
+        metavar="HOST:START_S:DURATION_S",
+        help="with --hosts: cut host HOST off the bridge START_S seconds after the first tick "
+        "and heal it DURATION_S later (repeatable)",
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.add_argument("--png", type=Path, metavar="FILE", help="draw fire, belief and paths")
     parser.add_argument("--log-dir", type=Path, metavar="DIR", help="node logs (default: temp)")
@@ -94,8 +109,8 @@ def resolve_policy(policy: str) -> str:
         EXPECTED_POLICIES,
         SHIPPED_POLICIES,
         is_policy_file,
+        resolve_policy_path,
     )
-    from wildfire_learning.controllers import resolve_policy_path
 
     if policy in BUILTIN_POLICIES:
         return policy
@@ -150,12 +165,40 @@ def check_hosts(count: int | None, n_aircraft: int) -> int:
     return count
 
 
+def check_faults(args: argparse.Namespace, hosts: int) -> tuple[Any, tuple[Any, ...]]:
+    """``--netem`` and ``--partition``: parsed, and only with ``--hosts``."""
+    from wildfire_bringup.netfaults import FaultSpecError, NetemSpec, Partition, check_partitions
+
+    netem = None
+    if args.netem is not None:
+        if not hosts:
+            raise UserError("--netem: only with --hosts (it impairs the virtual hosts' links)")
+        try:
+            netem = NetemSpec.parse(args.netem)
+        except FaultSpecError as error:
+            raise UserError(f"--netem {args.netem!r}: {error}") from None
+    partitions = []
+    for text in args.partition:
+        if not hosts:
+            raise UserError("--partition: only with --hosts (it cuts a virtual host off)")
+        try:
+            partitions.append(Partition.parse(text, hosts))
+        except FaultSpecError as error:
+            raise UserError(f"--partition {error}") from None
+    try:
+        check_partitions(partitions)
+    except FaultSpecError as error:
+        raise UserError(f"--partition: {error}") from None
+    return netem, tuple(partitions)
+
+
 def build_spec(args: argparse.Namespace) -> Any:
     from wildfire_bringup.launcher import RunSpec
     from wildfire_learning.env import EnvConfig, draw_scenario
     from wildfire_sim.shapes import Shape
 
     hosts = check_hosts(args.hosts, args.aircraft)
+    netem, partitions = check_faults(args, hosts)
     shape = Shape.parse(args.shape)
     policy = resolve_policy(args.policy)
     if args.respawn and not args.realtime:
@@ -178,6 +221,8 @@ def build_spec(args: argparse.Namespace) -> Any:
         params_file=check_params_file(args.params_file) if args.params_file else None,
         agent_backend=args.agent_backend,
         hosts=hosts,
+        netem=netem,
+        partitions=partitions,
     )
 
 
@@ -252,6 +297,20 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
     return result
 
 
+def network_faults(launcher: Any) -> dict[str, Any]:
+    """The summary's ``network_faults``: the impairment, how it was applied, the partitions."""
+    network = launcher.network
+    result: dict[str, Any] = {}
+    if network.netem is not None:
+        result["netem"] = network.netem.describe()
+        result["netem_applied_with"] = network.netem_via
+        if network.switch_counters:
+            result["switch_frames"] = network.switch_counters
+    if launcher.partitions is not None:
+        result["partitions"] = launcher.partitions.summary()
+    return result
+
+
 def run(args: argparse.Namespace) -> int:
     from wildfire_bringup.hosts import HostNetworkError
     from wildfire_bringup.launcher import Launcher, NodeFailure
@@ -284,6 +343,9 @@ def run(args: argparse.Namespace) -> int:
         result["respawns"] = launcher.respawns
     if network is not None:
         result["hosts"] = network.summary()
+        faults = network_faults(launcher)
+        if faults:
+            result["network_faults"] = faults
     if args.png is not None and monitor.fire is not None and monitor.belief is not None:
         from wildfire_learning.plots import plot_episode
 
