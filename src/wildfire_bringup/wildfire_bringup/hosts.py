@@ -23,6 +23,11 @@ processes start under ``ip netns exec <host>``. Every process gets its host's DD
 (:func:`wildfire_msgs_py.network.host_network_environment`): both middlewares bound to the host's
 address, discovery unicast to the K host addresses.
 
+Network faults (:mod:`wildfire_bringup.netfaults`): with a :class:`NetemSpec` every host's ``wf0``
+gets ``tc qdisc add ... root netem``, or, on a kernel without ``sch_netem``, the bridge namespace
+runs :mod:`wildfire_bringup.netem_switch` in place of the kernel bridge; :meth:`VirtualHosts.cut`
+and :meth:`VirtualHosts.heal` take a host's bridge port down and up (a partition).
+
 Tear-down always runs: when the run ends, fails or is interrupted (:class:`VirtualHosts` is a
 context manager), and at the next start for namespaces whose owner process is dead (a launcher
 killed by SIGKILL); processes still inside a namespace are killed before it is deleted.
@@ -39,10 +44,12 @@ import shutil
 import signal
 import subprocess
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from wildfire_bringup.netfaults import NetemSpec
 from wildfire_msgs_py.network import CONFLICTING_HOST_VARIABLES, host_network_environment
 
 if TYPE_CHECKING:
@@ -56,6 +63,8 @@ BRIDGE_DEVICE = "wfbr"
 HOST_DEVICE = "wf0"
 LAUNCHER = "launcher"
 """The launcher process in a placement: run monitor and, with ``--record``, the recorder."""
+SWITCH_STATS = "netem-switch.json"
+"""The user-space switch's counters, in the run's log directory."""
 NETNS_DIR = Path("/run/netns")
 """Where ``ip netns`` keeps its named namespaces (a bind mount each)."""
 
@@ -128,6 +137,18 @@ def _ip(*args: str) -> str:
         why = (result.stderr.strip().splitlines() or ["failed"])[0]
         raise HostNetworkError(f"ip {' '.join(args)}: {why}")
     return result.stdout
+
+
+def _tc(namespace: str, *args: str) -> None:
+    """``tc -n NAMESPACE ARGS``, or :class:`HostNetworkError` with tc's first error line."""
+    command = [shutil.which("tc") or "tc", "-n", namespace, *args]
+    try:
+        result = subprocess.run(command, capture_output=True, text=True, timeout=30, check=False)
+    except (OSError, subprocess.TimeoutExpired) as error:
+        raise HostNetworkError(f"tc {' '.join(args)}: {error}") from None
+    if result.returncode != 0:
+        why = (result.stderr.strip().splitlines() or ["failed"])[0]
+        raise HostNetworkError(f"tc {' '.join(args)}: {why}")
 
 
 def list_namespaces() -> list[str]:
@@ -203,7 +224,14 @@ class VirtualHosts:
     launcher's) and, on the way out, whatever happened, moves back and deletes them all.
     """
 
-    def __init__(self, n_aircraft: int, n_hosts: int, config_dir: Path) -> None:
+    def __init__(
+        self,
+        n_aircraft: int,
+        n_hosts: int,
+        config_dir: Path,
+        netem: NetemSpec | None = None,
+        seed: int = 0,
+    ) -> None:
         owner = os.getpid()
         self.bridge_namespace = f"{NAMESPACE_PREFIX}{owner}-br"
         self.hosts = [
@@ -215,6 +243,12 @@ class VirtualHosts:
         self.traffic: dict[str, dict[str, int]] = {}
         """What each host's interface sent and received over the run, by namespace (read just
         before tear-down): proof that the nodes talked across the bridge."""
+        self.netem = netem
+        self.netem_via: str | None = None
+        """How ``netem`` was applied: ``tc netem`` or ``user-space switch``."""
+        self.switch_counters: dict[str, int] = {}
+        self._seed = seed
+        self._switch: subprocess.Popen[bytes] | None = None
         self._created: list[str] = []
         self._environments: dict[str, dict[str, str]] = {}
         self._root_fd: int | None = None
@@ -285,6 +319,68 @@ class VirtualHosts:
             _ip("-n", host.namespace, "addr", "add", address, "dev", HOST_DEVICE)
             _ip("-n", host.namespace, "link", "set", HOST_DEVICE, "up")
             self._host_environment(host)
+        if self.netem is not None:
+            self._impair(self.netem)
+
+    # --- faults -------------------------------------------------------------------------------
+
+    def _impair(self, netem: NetemSpec) -> None:
+        """``netem`` on every host's link: the qdisc, or the user-space switch without it."""
+        try:
+            for host in self.hosts:
+                qdisc = ["qdisc", "add", "dev", HOST_DEVICE, "root", "netem"]
+                _tc(host.namespace, *qdisc, *netem.tc_arguments())
+            self.netem_via = "tc netem"
+            return
+        except HostNetworkError as error:
+            if "unknown" not in str(error).lower() and shutil.which("tc") is not None:
+                raise
+        self._start_switch(netem)
+
+    def _start_switch(self, netem: NetemSpec) -> None:
+        ports = [f"wfp{i}" for i in range(len(self.hosts))]
+        for port in ports:  # the switch forwards in place of the kernel bridge
+            _ip("-n", self.bridge_namespace, "link", "set", port, "nomaster")
+        command = [_ip_command(), "netns", "exec", self.bridge_namespace, sys.executable]
+        command += ["-m", "wildfire_bringup.netem_switch", "--ports", *ports]
+        command += ["--delay-ms", str(netem.delay_ms), "--jitter-ms", str(netem.jitter_ms)]
+        command += ["--loss-percent", str(netem.loss_percent), "--seed", str(self._seed)]
+        command += ["--stats", str(self.config_dir / SWITCH_STATS)]
+        log = open(self.config_dir / "netem-switch.log", "ab")  # noqa: SIM115 (kept by the child)
+        with log:
+            self._switch = subprocess.Popen(
+                command, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT
+            )
+        # Ready once it printed its line: frames sent before would be lost.
+        for _ in range(200):
+            if "ready" in (self.config_dir / "netem-switch.log").read_text(errors="replace"):
+                break
+            if self._switch.poll() is not None:
+                raise HostNetworkError("the user-space netem switch failed to start")
+            time.sleep(0.05)
+        self.netem_via = "user-space switch (this kernel has no sch_netem)"
+
+    def _stop_switch(self) -> None:
+        if self._switch is None:
+            return
+        with contextlib.suppress(ProcessLookupError):
+            self._switch.terminate()
+        try:
+            self._switch.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            self._switch.kill()
+            self._switch.wait()
+        self._switch = None
+        with contextlib.suppress(OSError, ValueError):
+            self.switch_counters = json.loads((self.config_dir / SWITCH_STATS).read_text())
+
+    def cut(self, index: int) -> None:
+        """Partition host ``index``: its bridge port goes down (the host keeps its own link)."""
+        _ip("-n", self.bridge_namespace, "link", "set", f"wfp{index}", "down")
+
+    def heal(self, index: int) -> None:
+        """End the partition of host ``index``: its bridge port comes back up."""
+        _ip("-n", self.bridge_namespace, "link", "set", f"wfp{index}", "up")
 
     def read_traffic(self) -> None:
         """Keep the packet and byte counters of every host's interface (best effort)."""
@@ -305,6 +401,7 @@ class VirtualHosts:
 
     def remove(self) -> None:
         """Kill what runs in this run's namespaces and delete them (every one, best effort)."""
+        self._stop_switch()
         for name in reversed(self._created):
             remove_namespace(name)
         self._created.clear()

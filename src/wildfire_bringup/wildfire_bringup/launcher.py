@@ -17,7 +17,11 @@ the belief from the agents).
 With ``RunSpec.hosts`` the run spreads over that many virtual hosts, Linux network namespaces on
 a bridge of their own (:mod:`wildfire_bringup.hosts`): the launcher joins host 0 before its
 participant exists, every child starts under ``ip netns exec`` with its host's DDS settings, and
-the namespaces are removed when the run ends, fails or is interrupted.
+the namespaces are removed when the run ends, fails or is interrupted. ``RunSpec.netem`` impairs
+every host's link and ``RunSpec.partitions`` cut hosts off and heal them on schedule
+(:mod:`wildfire_bringup.netfaults`); a cut host's nodes are *unreachable*, not dead (only a
+process that exits is), and the run goes on: :class:`PartitionSchedule` logs the cut and the heal
+and, from the monitor's receipt times, when each unreachable node was heard again.
 """
 
 from __future__ import annotations
@@ -35,8 +39,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from wildfire_bringup.hosts import VirtualHosts
+from wildfire_bringup.hosts import LAUNCHER, VirtualHosts
 from wildfire_bringup.monitor_node import REPORTER, RunMonitorNode
+from wildfire_bringup.netfaults import NetemSpec, Partition, PartitionRecord
 from wildfire_msgs_py.network import apply_local_network_defaults
 
 if TYPE_CHECKING:
@@ -75,6 +80,10 @@ class RunSpec:
     a mixed system, the two backends talking over the wire."""
     hosts: int = 0
     """Virtual hosts (network namespaces) to spread the nodes over; 0: this machine's network."""
+    netem: NetemSpec | None = None
+    """Delay and loss on every host's link (with ``hosts``)."""
+    partitions: tuple[Partition, ...] = ()
+    """Hosts to cut off and heal during the flight (with ``hosts``)."""
 
     @property
     def mode(self) -> str:
@@ -189,6 +198,94 @@ def last_line(path: Path) -> str:
     return lines[-1] if lines else ""
 
 
+class PartitionSchedule:
+    """Cuts and heals hosts on schedule (seconds of wall time after the first tick) and records
+    what the run monitor heard meanwhile."""
+
+    def __init__(
+        self, partitions: tuple[Partition, ...], network: VirtualHosts, monitor: RunMonitorNode
+    ) -> None:
+        self.network = network
+        self.monitor = monitor
+        self.records = [
+            PartitionRecord(p, network.hosts[p.host].namespace, self._unreachable(p.host))
+            for p in partitions
+        ]
+        self._heal_times: dict[int, float] = {}
+
+    def _unreachable(self, index: int) -> tuple[str, ...]:
+        """The nodes the launcher cannot hear while host ``index`` is cut off."""
+        own = self.network.host_of(LAUNCHER)
+        cut = self.network.hosts[index]
+        if cut == own:
+            return tuple(n for h in self.network.hosts if h != own for n in h.nodes)
+        return tuple(n for n in cut.nodes if n != LAUNCHER)
+
+    @property
+    def extra_time_s(self) -> float:
+        """Wall time the cuts may add to a lockstep run (it waits through them)."""
+        return sum(r.partition.duration_s for r in self.records)
+
+    def step(self, flight_s: float, now: float) -> None:
+        """Apply every cut and heal that is due at ``flight_s`` after the first tick."""
+        for i, record in enumerate(self.records):
+            partition = record.partition
+            if record.cut_at_s is None and flight_s >= partition.start_s:
+                self.network.cut(partition.host)
+                record.cut_at_s = flight_s
+                record.belief_stamps = (self.monitor.belief_stamp, -1, -1)
+                print(
+                    f"wildfire run: host {partition.host} ({record.namespace}) cut off at "
+                    f"{flight_s:.1f} s for {partition.duration_s:g} s; unreachable, not dead: "
+                    f"{', '.join(record.unreachable) or 'no node'}",
+                    file=sys.stderr,
+                )
+            elif record.healed_at_s is None and flight_s >= partition.end_s:
+                self.heal(i, flight_s, now)
+
+    def heal(self, i: int, flight_s: float, now: float) -> None:
+        record = self.records[i]
+        self.network.heal(record.partition.host)
+        record.healed_at_s = flight_s
+        self._heal_times[i] = now
+        at_cut = record.belief_stamps[0] if record.belief_stamps else -1
+        record.belief_stamps = (at_cut, self.monitor.belief_stamp, -1)
+        print(
+            f"wildfire run: host {record.partition.host} ({record.namespace}) healed at "
+            f"{flight_s:.1f} s",
+            file=sys.stderr,
+        )
+
+    def finish(self, flight_s: float, now: float) -> None:
+        """Heal what is still cut (the run ended first) and work out when nodes came back."""
+        for i, record in enumerate(self.records):
+            if record.cut_at_s is not None and record.healed_at_s is None:
+                self.heal(i, flight_s, now)
+            if i not in self._heal_times:
+                continue
+            healed = self._heal_times[i]
+            record.heard_again_after_s = {
+                node: self.monitor.first_heard_after(node, healed) for node in record.unreachable
+            }
+            for node in record.unreachable:
+                after = record.heard_again_after_s[node]
+                record.heard_again_after_s[node] = None if after is None else after - healed
+            if record.belief_stamps is not None:
+                record.belief_stamps = (*record.belief_stamps[:2], self.monitor.belief_stamp)
+            heard = ", ".join(
+                f"{node} after {after:.2f} s" if after is not None else f"{node} never"
+                for node, after in record.heard_again_after_s.items()
+            )
+            print(
+                f"wildfire run: after the heal of host {record.partition.host}, heard again "
+                f"from {heard or 'no node'}",
+                file=sys.stderr,
+            )
+
+    def summary(self) -> list[dict[str, Any]]:
+        return [record.summary() for record in self.records]
+
+
 class Launcher:
     """Runs one episode of the distributed system (see the module docstring)."""
 
@@ -199,8 +296,11 @@ class Launcher:
         self.log_dir.mkdir(parents=True, exist_ok=True)
         self.processes: dict[str, subprocess.Popen[bytes]] = {}
         self.network = (
-            VirtualHosts(spec.n_aircraft, spec.hosts, self.log_dir) if spec.hosts else None
+            VirtualHosts(spec.n_aircraft, spec.hosts, self.log_dir, spec.netem, spec.seed)
+            if spec.hosts
+            else None
         )
+        self.partitions: PartitionSchedule | None = None
         self.respawns: dict[str, int] = {}
         self.recorder: Any = None
         self.monitor: RunMonitorNode | None = None
@@ -324,7 +424,12 @@ class Launcher:
                 self.executor.add_node(self.recorder.node)
             for name, command in node_commands(self.spec).items():
                 self.start_node(name, command)
-            limit = timeout_s or (60.0 + 20.0 * self.spec.duration_s)
+            if self.network is not None and self.spec.partitions:
+                self.partitions = PartitionSchedule(
+                    self.spec.partitions, self.network, self.monitor
+                )
+            extra = self.partitions.extra_time_s if self.partitions is not None else 0.0
+            limit = timeout_s or (60.0 + 20.0 * self.spec.duration_s + extra)
             last_check = 0.0
             first_tick: float | None = None
             first_tick_cpu = float("nan")
@@ -335,6 +440,8 @@ class Launcher:
                 if first_tick is None and status is not None and status.tick >= 1:
                     first_tick = now
                     first_tick_cpu = self.children_cpu_s()
+                if self.partitions is not None and first_tick is not None:
+                    self.partitions.step(now - first_tick, now)
                 if now - last_check > 0.2:
                     last_check = now
                     self.check_children()
@@ -349,6 +456,9 @@ class Launcher:
             end = time.monotonic() + 0.5
             while time.monotonic() < end:
                 self.executor.spin_once(timeout_sec=0.05)
+            if self.partitions is not None:
+                now = time.monotonic()
+                self.partitions.finish(now - (first_tick or now), now)
             return self.monitor
         finally:
             self.wall_s = time.monotonic() - start

@@ -14,6 +14,8 @@ dropped ones are counted (``input_guard``).
 
 from __future__ import annotations
 
+import bisect
+import time
 from typing import Any
 
 import numpy as np
@@ -70,6 +72,9 @@ class RunMonitorNode(Node):
         self.deadlines: dict[int, dict[str, float]] = {}
         self.input_drops: dict[str, dict[str, float]] = {}
         self.acked_tick = -1
+        self.heard: dict[str, list[float]] = {}
+        """Monotonic receipt times of each node's accepted messages (its status, belief or
+        state): when a node cut off by a partition was heard again."""
         self.input_guard = InputGuard(self.get_logger().warning)
         self.ack_pub = contract_publisher(self, contract.ACK)
 
@@ -99,6 +104,7 @@ class RunMonitorNode(Node):
         check_status_tick(status.tick, last, self.lockstep, MAX_STATUS_STEP)
         if self.status is None or status.tick >= self.status.tick:
             self.status = status
+        self._heard("fire_simulator")
         self.report()
 
     def fire_map_callback(self, msg: Any) -> None:
@@ -114,6 +120,7 @@ class RunMonitorNode(Node):
         stamp, belief = checked_fire_grid(msg)
         self.belief_stamp = self._newer(self.belief_stamp, stamp)
         self.belief = belief
+        self._heard("belief_aggregator")
 
     def belief_age_callback(self, msg: Any) -> None:
         _, self.ages = checked_age_image(msg)
@@ -125,7 +132,17 @@ class RunMonitorNode(Node):
     def state_callback(self, k: int, msg: Any) -> None:
         stamp, vector = checked_stamped_state(msg, MAX_BANK_RAD)
         self.states[k].accept(stamp, vector)
+        self._heard(f"uav{k}")
         self.report()
+
+    def _heard(self, node: str) -> None:
+        self.heard.setdefault(node, []).append(time.monotonic())
+
+    def first_heard_after(self, node: str, since: float) -> float | None:
+        """Monotonic time of ``node``'s first accepted message at or after ``since``."""
+        times = self.heard.get(node, [])
+        i = bisect.bisect_left(times, since)
+        return times[i] if i < len(times) else None
 
     @staticmethod
     def _newer(last_stamp: int, stamp: int) -> int:
