@@ -36,7 +36,7 @@ DEVICE_CAPABLE = {"inference"}
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "bench",
-        help="measure speed (fire, environment, planner, inference, DDS, system)",
+        help="measure speed (fire, environment, planner, inference, DDS, system, network)",
         description="Run the benchmarks and report their figures.",
     )
     parser.add_argument(
