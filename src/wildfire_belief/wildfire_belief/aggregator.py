@@ -11,7 +11,7 @@ that are burning. Windows arrive as ``(row0, col0, visited, burning)`` (the code
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
@@ -33,6 +33,15 @@ class Window(Protocol):
     def burning(self) -> np.ndarray: ...
 
 
+class VisitMask(NamedTuple):
+    """A visit window cut to some of its cells (a :class:`Window`)."""
+
+    row0: int
+    col0: int
+    visited: np.ndarray
+    burning: np.ndarray
+
+
 class BeliefAggregator:
     """The shared belief of one episode and its cumulative team score."""
 
@@ -40,6 +49,8 @@ class BeliefAggregator:
         self.belief = SharedBelief(1)
         self.belief.reset([0], ignition_burning)
         self.score = 0
+        self.cell_stamp_ns = np.full((GRID_SIZE, GRID_SIZE), -1, dtype=np.int64)
+        """Stamp of the visit that last set each cell (real time, :meth:`fresher_visits`)."""
 
     @property
     def burning(self) -> np.ndarray:
@@ -75,6 +86,29 @@ class BeliefAggregator:
         self.score += reward
         return reward
 
+    def fresher_visits(self, stamped: Sequence[tuple[int, Window]]) -> list[VisitMask]:
+        """Real time: the windows in stamp order, each cut to the cells it saw last.
+
+        Visits of different aircraft arrive in any order (network delay, loss and retries),
+        and an older look at a cell must not undo a newer one: applied late, it would turn a
+        cell back to an outdated state and the next fresh visit would score it again. Each
+        cell keeps the stamp of the visit that set it; a window keeps only the cells it saw
+        no earlier than that. (Lockstep merges every aircraft's visit of one tick together,
+        as the environment does, and never needs this.)
+        """
+        kept = []
+        for stamp, window in sorted(stamped, key=lambda item: item[0]):
+            rows, cols = np.nonzero(window.visited)
+            rows, cols = rows + window.row0, cols + window.col0
+            inside = (rows >= 0) & (rows < GRID_SIZE) & (cols >= 0) & (cols < GRID_SIZE)
+            rows, cols = rows[inside], cols[inside]
+            fresh = self.cell_stamp_ns[rows, cols] <= stamp
+            self.cell_stamp_ns[rows[fresh], cols[fresh]] = stamp
+            visited = np.zeros_like(np.asarray(window.visited, bool))
+            visited[rows[fresh] - window.row0, cols[fresh] - window.col0] = True
+            kept.append(VisitMask(window.row0, window.col0, visited, np.asarray(window.burning)))
+        return kept
+
     def restore(self, time_s: float, score: float, believed: np.ndarray, age_s: np.ndarray) -> None:
         """Continue from a copy of the belief taken at ``time_s`` (ages exact to 0.1 s)."""
         now = round(time_s * TICKS_PER_S)
@@ -84,4 +118,4 @@ class BeliefAggregator:
         self.score = round(score)
 
 
-__all__ = ["BeliefAggregator"]
+__all__ = ["BeliefAggregator", "VisitMask"]
