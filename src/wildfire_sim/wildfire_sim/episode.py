@@ -17,6 +17,8 @@ simulator's parameters (``config/wildfire.yaml`` is tested to agree with it).
 
 from __future__ import annotations
 
+from enum import StrEnum
+
 import numpy as np
 
 from wildfire_sim.defaults import EPISODE_DEFAULTS, EpisodeDefaults
@@ -28,6 +30,18 @@ DECISIONS_PER_FIRE_STEP = 25
 DECISION_PERIOD_NS = 100_000_000
 """One decision is 0.1 s; tick ``k`` happens at ``k * DECISION_PERIOD_NS`` of sim time."""
 NS_PER_S = 1_000_000_000
+
+
+class Mode(StrEnum):
+    """How an episode is paced (every node's ``mode`` parameter, converted once)."""
+
+    LOCKSTEP = "lockstep"
+    """Message driven on sim time: each tick waits for every node; equals the environment."""
+    REALTIME = "realtime"
+    """Wall-clock timers; stamps are the node clock and late decisions miss their slot."""
+
+
+MODES = tuple(mode.value for mode in Mode)
 
 
 def decisions_in(duration_s: float) -> int:
@@ -126,9 +140,11 @@ __all__ = [
     "DECISIONS_PER_FIRE_STEP",
     "DECISION_PERIOD_NS",
     "EPISODE_DEFAULTS",
+    "MODES",
     "NS_PER_S",
     "EpisodeDefaults",
     "FireEpisode",
+    "Mode",
     "decisions_in",
     "fire_at_border",
     "fire_step_tick",

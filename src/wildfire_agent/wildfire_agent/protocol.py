@@ -1,0 +1,438 @@
+"""The agent's protocol without ROS: decoded inputs in, what to publish out.
+
+:class:`AgentProtocol` is everything the agent node decides apart from decoding and
+encoding messages, so the lockstep barrier, the team state, the real-time slots and the
+deadline statistics can be tested with plain calls (``tests/test_agent_protocol.py``).
+Each ``on_*`` method takes one decoded, checked input (``wildfire_msgs_py.wire_checks``)
+and returns the messages it makes due, in publishing order, as small value objects
+(:data:`Output`); an input that must be dropped raises
+:class:`~wildfire_msgs_py.input_guard.RejectedMessage`, which the node's guard counts.
+
+Lockstep: for tick ``k`` announced by the episode status the agent waits for the fire map
+of that tick's fire step, sends its visit window at ``s_k`` (from tick 1), and unless the
+episode has ended waits for every peer's ``s_k`` (and, for a belief policy, the belief of
+tick ``k``), decides ``a_k``, flies to ``s_{k+1}`` stamped ``(k + 1) * 0.1 s`` and
+acknowledges tick ``k``: the environment's order. Inputs may arrive in any order; what a
+tick has used is forgotten and later copies are refused as replays.
+
+Real time: :meth:`AgentProtocol.on_timer` decides from the newest inputs once per 100 ms
+slot; a decision that ends after its slot counts as a missed deadline.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+from wildfire_agent import dynamics
+from wildfire_agent.dynamics import AircraftState
+from wildfire_agent.pilot import Pilot
+from wildfire_belief.visits import visit_windows, window_values
+from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
+from wildfire_msgs_py.contract import DEADLINE_STATUS
+from wildfire_msgs_py.input_guard import (
+    DropReason,
+    RejectedMessage,
+    TickInbox,
+    check_status_tick,
+)
+from wildfire_msgs_py.system_codecs import BeliefSnapshot, EpisodeStatus
+from wildfire_sim.episode import (
+    DECISION_PERIOD_NS,
+    DECISIONS_PER_FIRE_STEP,
+    Mode,
+    fire_step_tick,
+)
+
+PERIOD_S = DECISION_PERIOD_NS / 1e9
+DEADLINE_EVERY_DECISIONS = 10
+"""Deadline statistics go out at 1 Hz: every message costs each node a publish."""
+FIRE_STEP_NS = DECISIONS_PER_FIRE_STEP * DECISION_PERIOD_NS
+AHEAD_TICKS = 2 * DECISIONS_PER_FIRE_STEP
+"""How far past the announced tick an honest input can be stamped (fire maps run one fire
+step ahead at most; statuses, states and beliefs a tick or two): anything further is refused."""
+REALTIME_AHEAD_NS = 10_000_000_000
+"""Real time: stamps more than 10 s past the node clock are refused (clock skew allowance)."""
+REQUEST_ANSWER_PERIOD_S = 1.0
+"""A belief snapshot (160 kB) goes out at most once a second, whoever asks."""
+BELIEFS_KEPT = 4
+"""Beliefs (and ages) held by stamp: a belief policy needs the one of its tick, no older."""
+MAX_BANK_RAD = float(dynamics.MAX_BANK_STEPS * dynamics.BANK_STEP_RAD)
+
+
+class StateOut(NamedTuple):
+    """Own pose to publish (``state_stamped``, ``state``, ``odom``; ``bank_cmd`` after a turn)."""
+
+    stamp: int
+    vector: np.ndarray
+    """x, y, heading, bank in radians (float64, 4)."""
+    bank_rad: float | None
+    """The commanded bank after a decision; None for the start pose."""
+
+
+class VisitOut(NamedTuple):
+    """The visit window of the current pose."""
+
+    stamp: int
+    window: VisitWindow
+
+
+class AckOut(NamedTuple):
+    """Tick done: acknowledge it on ``/wildfire/ack``."""
+
+    stamp: int
+
+
+class DeadlineOut(NamedTuple):
+    """Deadline statistics due on ``/diagnostics`` (the node adds its input status)."""
+
+    stamp: int
+    status: NodeStatus
+
+
+Output = StateOut | VisitOut | AckOut | DeadlineOut
+
+
+class DeadlineStats:
+    """Decision-time statistics of the 10 Hz loop."""
+
+    def __init__(self) -> None:
+        self.decisions = 0
+        self.missed = 0
+        self.compute_s_total = 0.0
+        self.compute_s_max = 0.0
+        self.late_s_max = 0.0
+
+    def add(self, compute_s: float, late_s: float) -> None:
+        self.decisions += 1
+        self.compute_s_total += compute_s
+        self.compute_s_max = max(self.compute_s_max, compute_s)
+        self.late_s_max = max(self.late_s_max, late_s)
+        if late_s + compute_s > PERIOD_S:
+            self.missed += 1
+
+    def level(self) -> str:
+        """Diagnostic level: OK under 1 % missed deadlines, WARN under 10 %, else ERROR."""
+        fraction = self.missed / max(self.decisions, 1)
+        return "OK" if fraction < 0.01 else "WARN" if fraction < 0.1 else "ERROR"
+
+    def as_dict(self) -> dict[str, float | int]:
+        return {
+            "decisions": self.decisions,
+            "missed": self.missed,
+            "missed_fraction": self.missed / max(self.decisions, 1),
+            "compute_ms_mean": 1e3 * self.compute_s_total / max(self.decisions, 1),
+            "compute_ms_max": 1e3 * self.compute_s_max,
+            "late_ms_max": 1e3 * self.late_s_max,
+        }
+
+    def node_status(self, name_tag: str) -> NodeStatus:
+        stats = self.as_dict()
+        return NodeStatus(
+            f"{name_tag}/agent: {DEADLINE_STATUS}",
+            name_tag,
+            self.level(),
+            f"{stats['missed']} of {stats['decisions']} decisions missed their 100 ms slot",
+            dict(stats),
+        )
+
+
+def next_slot_start(slot_start: float, now_s: float, period_s: float = PERIOD_S) -> float:
+    """Start of the next decision slot after ``now_s``.
+
+    Slots follow the wall clock: a late decision does not shift the next slot, and a
+    decision that overran several slots skips them instead of queueing decisions.
+    """
+    return slot_start + period_s * max(1, int((now_s - slot_start) // period_s))
+
+
+def state_vector(state: AircraftState) -> np.ndarray:
+    """x, y, heading, bank (rad) of a single aircraft, as sent on ``state_stamped``."""
+    return np.array(
+        [state.x_m[0], state.y_m[0], state.heading_rad[0], state.bank_rad[0]], dtype=np.float64
+    )
+
+
+def team_state(own: AircraftState, k: int, peers: Sequence[np.ndarray]) -> AircraftState:
+    """Poses of the whole team (fields (n,)): ``peers`` are the others' vectors, in order.
+
+    Peers send their bank in radians; it is rounded back to integer 5 degree steps. The own
+    bank comes from our state object (not via radians) so the decision stays bit-exact.
+    """
+    rows = [*peers[:k], state_vector(own), *peers[k:]]
+    team = np.stack(rows)
+    bank_steps = np.rint(team[:, 3] / dynamics.BANK_STEP_RAD).astype(np.int64)
+    x, y, heading = team[:, 0].copy(), team[:, 1].copy(), team[:, 2].copy()
+    bank_steps[k] = own.bank_steps[0]
+    return AircraftState(x, y, heading, bank_steps)
+
+
+def visit_window(state: AircraftState, burning: np.ndarray) -> VisitWindow:
+    """The window of cells the aircraft at ``state`` visits, with their true fire state."""
+    windows = visit_windows(state.x_m[None], state.y_m[None])
+    truth = window_values(burning[None], windows)[0, 0].astype(bool)
+    return VisitWindow(
+        int(windows.row0[0, 0]), int(windows.col0[0, 0]), windows.visited[0, 0], truth
+    )
+
+
+class AgentProtocol:
+    """Aircraft ``k`` of ``n``: inputs by stamp, the lockstep barrier and real-time slots.
+
+    ``now_ns`` is the node clock (stamps in real time), ``clock`` a monotonic clock in
+    seconds that times the decisions.
+    """
+
+    def __init__(
+        self,
+        k: int,
+        n: int,
+        mode: Mode,
+        pilot: Pilot,
+        start: AircraftState,
+        name_tag: str,
+        now_ns: Callable[[], int],
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.k = k
+        self.n = n
+        self.mode = mode
+        self.pilot = pilot
+        self.state = start
+        self.name_tag = name_tag
+        self.now_ns = now_ns
+        self.clock = clock
+        tick_ns = DECISION_PERIOD_NS if mode is Mode.LOCKSTEP else None
+        self.peer_states: dict[int, TickInbox[np.ndarray]] = {
+            j: TickInbox(tick_ns) for j in range(n) if j != k
+        }
+        self.fire: TickInbox[np.ndarray] = TickInbox(FIRE_STEP_NS)
+        self.belief: TickInbox[np.ndarray] = TickInbox(tick_ns)
+        self.ages: TickInbox[np.ndarray] = TickInbox(tick_ns)
+        self.score = 0.0
+        self.status_tick = -1
+        self.final_tick: int | None = None
+        self.running = False
+        self.visited_tick = 0  # tick 0 has no visit: the belief starts from the ignition
+        self.decided_tick = -1
+        self.last_answer_s = -float("inf")
+        self.stats = DeadlineStats()
+        self.slot_start: float | None = None
+
+    @property
+    def keeps_belief(self) -> bool:
+        """Whether the agent needs the shared belief (and the score).
+
+        Belief policies decide from it, and in real time each agent keeps a copy for an
+        aggregator that restarts (lockstep runs never respawn): a lockstep agent flying
+        another policy skips two 100 x 100 grids per tick.
+        """
+        return self.pilot.needs_belief or self.mode is Mode.REALTIME
+
+    # --- stamps -------------------------------------------------------------------------------
+
+    def stamp(self, tick: int) -> int:
+        """Stamp of tick ``tick`` in lockstep, the node clock in real time."""
+        if self.mode is Mode.LOCKSTEP:
+            return tick * DECISION_PERIOD_NS
+        return self.now_ns()
+
+    def ahead_limit_ns(self) -> int:
+        """Newest stamp an honest input can carry now (lockstep: ticks past the status)."""
+        if self.mode is Mode.LOCKSTEP:
+            return self.status_ceiling_ns()
+        return self.now_ns() + REALTIME_AHEAD_NS
+
+    def status_ceiling_ns(self) -> int:
+        return (max(self.status_tick, 0) + AHEAD_TICKS) * DECISION_PERIOD_NS
+
+    # --- inputs -------------------------------------------------------------------------------
+
+    def start(self) -> list[Output]:
+        """The start pose, published once the node is up."""
+        return [StateOut(self.stamp(0), state_vector(self.state), None)]
+
+    def on_fire_map(self, stamp: int, burning: np.ndarray) -> list[Output]:
+        self.fire.ceiling = self.status_ceiling_ns()  # fire maps carry the sim tick in both modes
+        self.fire.accept(stamp, burning)
+        if self.mode is Mode.REALTIME:
+            self.fire.discard_below(stamp)  # decide from the newest map; refuse older ones
+        return self.advance()
+
+    def on_status(self, status: EpisodeStatus) -> list[Output]:
+        if status.phase == "waiting":
+            return []
+        lockstep = self.mode is Mode.LOCKSTEP
+        check_status_tick(status.tick, self.status_tick, lockstep, AHEAD_TICKS)
+        self.running = True
+        self.status_tick = max(self.status_tick, status.tick)
+        out: list[Output] = []
+        if status.final and self.final_tick is None:
+            self.final_tick = status.tick
+            if not lockstep:
+                out += self.deadline(0, force=True)
+        return out + self.advance()
+
+    def on_peer_state(self, j: int, stamp: int, vector: np.ndarray) -> list[Output]:
+        states = self.peer_states[j]
+        states.ceiling = self.ahead_limit_ns()
+        states.accept(stamp, vector)
+        if self.mode is Mode.REALTIME:
+            states.discard_below(stamp)  # the newest pose is the peer's pose
+        return self.advance()
+
+    def on_belief(self, stamp: int, burning: np.ndarray) -> list[Output]:
+        return self._keep_belief(self.belief, stamp, burning)
+
+    def on_ages(self, stamp: int, age_s: np.ndarray) -> list[Output]:
+        return self._keep_belief(self.ages, stamp, age_s)
+
+    def _keep_belief(
+        self, inbox: TickInbox[np.ndarray], stamp: int, grid: np.ndarray
+    ) -> list[Output]:
+        inbox.ceiling = self.ahead_limit_ns()
+        inbox.accept(stamp, grid)
+        inbox.keep_newest(BELIEFS_KEPT)
+        return self.advance()
+
+    def on_score(self, score: float) -> None:
+        # The score is cumulative and unstamped: an older (replayed) value is smaller.
+        self.score = max(self.score, score)
+
+    def on_belief_request(self, now_s: float) -> BeliefSnapshot | None:
+        """Our copy of the shared belief for a (re)started aggregator (at most once a second)."""
+        common = sorted(set(self.belief.items) & set(self.ages.items))
+        if not common:
+            return None
+        if now_s - self.last_answer_s < REQUEST_ANSWER_PERIOD_S:
+            raise RejectedMessage(DropReason.RATE_LIMITED, "belief snapshot sent under 1 s ago")
+        self.last_answer_s = now_s
+        stamp = common[-1]
+        return BeliefSnapshot(
+            stamp / 1e9, self.score, self.belief.items[stamp], self.ages.items[stamp]
+        )
+
+    # --- real time ----------------------------------------------------------------------------
+
+    def on_timer(self, now_s: float) -> list[Output]:
+        """Real time: one decision per 100 ms slot from the newest inputs (``now_s``: clock)."""
+        newest_fire = self.fire.latest()
+        if not self.running or self.final_tick is not None or newest_fire is None:
+            return []
+        if self.slot_start is None:
+            self.slot_start = now_s
+        late = max(0.0, now_s - self.slot_start)
+        team = self.latest_team()
+        belief, ages = self.latest_belief()
+        if team is None or (self.pilot.needs_belief and belief is None):
+            return []
+        fire_stamp, burning = newest_fire
+        action = self.pilot.decide(team, burning, fire_stamp, belief, ages)
+        out: list[Output] = [self.fly(action, tick=0), VisitOut(self.stamp(0), self.visit(burning))]
+        self.stats.add(self.clock() - now_s, late)
+        out += self.deadline(0)
+        self.slot_start = next_slot_start(self.slot_start, self.clock())
+        return out
+
+    def latest_team(self) -> AircraftState | None:
+        peers = []
+        for states in self.peer_states.values():
+            newest = states.latest()
+            if newest is None:
+                return None
+            peers.append(newest[1])
+        return team_state(self.state, self.k, peers)
+
+    def latest_belief(self) -> tuple[np.ndarray | None, np.ndarray | None]:
+        common = set(self.belief.items) & set(self.ages.items)
+        if not common:
+            return None, None
+        stamp = max(common)
+        return self.belief.items[stamp], self.ages.items[stamp]
+
+    # --- lockstep -----------------------------------------------------------------------------
+
+    def advance(self) -> list[Output]:
+        """Lockstep: whatever the inputs received so far allow for the announced ticks."""
+        out: list[Output] = []
+        if self.mode is not Mode.LOCKSTEP or not self.running:
+            return out
+        while (tick := self.decided_tick + 1) <= self.status_tick:
+            fire_stamp = fire_step_tick(tick) * DECISION_PERIOD_NS
+            burning = self.fire.get(fire_stamp)
+            if burning is None:
+                return out
+            if self.visited_tick < tick:
+                out.append(VisitOut(self.stamp(tick), self.visit(burning)))
+                self.visited_tick = tick
+            if self.final_tick is not None and tick >= self.final_tick:
+                self.decided_tick = tick
+                return [*out, *self.deadline(tick, force=True), AckOut(self.stamp(tick))]
+            stamp = tick * DECISION_PERIOD_NS
+            team = self.team_at(stamp)
+            if team is None:
+                return out
+            belief = ages = None
+            if self.pilot.needs_belief:
+                belief, ages = self.belief.get(stamp), self.ages.get(stamp)
+                if belief is None or ages is None:
+                    return out
+            start = self.clock()
+            action = self.pilot.decide(team, burning, fire_stamp, belief, ages)
+            out.append(self.fly(action, tick + 1))
+            self.stats.add(self.clock() - start, 0.0)
+            out += self.deadline(tick + 1)
+            self.forget_tick(tick)
+            self.decided_tick = tick
+            out.append(AckOut(self.stamp(tick)))
+        return out
+
+    def team_at(self, stamp: int) -> AircraftState | None:
+        """The team at ``stamp``; None while a peer's pose of that stamp is missing."""
+        peers = [states.get(stamp) for states in self.peer_states.values()]
+        if any(vector is None for vector in peers):
+            return None
+        return team_state(self.state, self.k, [v for v in peers if v is not None])
+
+    def forget_tick(self, tick: int) -> None:
+        """What tick ``tick`` used is done with: later copies of it are replays."""
+        for states in self.peer_states.values():
+            states.discard_below((tick + 1) * DECISION_PERIOD_NS)
+        self.fire.discard_below(fire_step_tick(tick + 1) * DECISION_PERIOD_NS)
+
+    # --- outputs ------------------------------------------------------------------------------
+
+    def visit(self, burning: np.ndarray) -> VisitWindow:
+        return visit_window(self.state, burning)
+
+    def fly(self, action: int, tick: int) -> StateOut:
+        self.state = dynamics.step(self.state, np.array([action], dtype=np.int64))
+        return StateOut(self.stamp(tick), state_vector(self.state), float(self.state.bank_rad[0]))
+
+    def deadline(self, tick: int, force: bool = False) -> list[Output]:
+        """Deadline statistics once a second of flight (every 10 decisions), and at the end."""
+        if not force and self.stats.decisions % DEADLINE_EVERY_DECISIONS:
+            return []
+        return [DeadlineOut(self.stamp(tick), self.stats.node_status(self.name_tag))]
+
+
+__all__ = [
+    "AHEAD_TICKS",
+    "MAX_BANK_RAD",
+    "PERIOD_S",
+    "AckOut",
+    "AgentProtocol",
+    "DeadlineOut",
+    "DeadlineStats",
+    "Mode",
+    "Output",
+    "StateOut",
+    "VisitOut",
+    "next_slot_start",
+    "state_vector",
+    "team_state",
+    "visit_window",
+]
