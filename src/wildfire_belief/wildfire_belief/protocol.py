@@ -1,0 +1,241 @@
+"""The belief aggregator's protocol without ROS: decoded inputs in, what to publish out.
+
+:class:`AggregatorProtocol` holds everything the aggregator node decides apart from
+decoding and encoding, so the merge-when-all-visits-are-in barrier, the start and the
+recovery of a restarted aggregator can be tested with plain calls
+(``tests/test_aggregator_protocol.py``). Each ``on_*`` method takes one decoded, checked
+input and returns the messages it makes due, in order (:data:`Output`); an input to drop
+raises :class:`~wildfire_msgs_py.input_guard.RejectedMessage`.
+
+* Lockstep: tick ``k >= 1`` is merged once the visit stamped ``k * 0.1 s`` of every
+  aircraft is in (and the tick is announced); then the belief goes out stamped with the
+  tick and the tick is acknowledged. Visits of a merged tick are replays.
+* Real time: :meth:`AggregatorProtocol.on_timer` merges whatever visits arrived since the
+  last timer tick.
+* Restart: a real-time aggregator that starts into a running episode (status tick > 0)
+  asks for the agents' copies and continues from the newest one, or from the ignition seed
+  once ``recover_timeout_s`` passes without any.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+
+from wildfire_belief.aggregator import BeliefAggregator
+from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
+from wildfire_msgs_py.input_guard import TickInbox, check_status_tick
+from wildfire_msgs_py.system_codecs import READY_SUFFIX, BeliefSnapshot, EpisodeStatus
+from wildfire_sim.episode import DECISION_PERIOD_NS, DECISIONS_PER_FIRE_STEP, Mode
+
+NAME = "belief_aggregator"
+STATUS_EVERY_TICKS = 10
+"""The node's status goes to ``/diagnostics`` once a second of flight."""
+AHEAD_TICKS = 2 * DECISIONS_PER_FIRE_STEP
+"""Visits stamped further past the announced tick than this are refused (lockstep)."""
+REALTIME_AHEAD_NS = 10_000_000_000
+"""Real time: visits stamped more than 10 s past the node clock are refused."""
+
+
+class BeliefOut(NamedTuple):
+    """The shared belief, its ages and the score to publish, stamped."""
+
+    stamp: int
+    burning: np.ndarray
+    age_s: np.ndarray
+    score: float
+    status: NodeStatus | None
+    """The node's shared-belief status when due on ``/diagnostics`` (once a second)."""
+
+
+class AckOut(NamedTuple):
+    """An acknowledgement on ``/wildfire/ack`` (``reporter`` may carry the ready suffix)."""
+
+    reporter: str
+    stamp: int
+
+
+class RequestOut(NamedTuple):
+    """Ask the agents for their copy of the shared belief (``/wildfire/belief_request``)."""
+
+
+class LogOut(NamedTuple):
+    """A line for the node's log."""
+
+    warning: bool
+    text: str
+
+
+Output = BeliefOut | AckOut | RequestOut | LogOut
+
+
+class AggregatorProtocol:
+    """Shared belief of ``n`` aircraft from their visits (see the module docstring).
+
+    ``now_ns`` is the node clock (real-time stamps), ``clock`` a monotonic clock in seconds
+    (the recovery timeout).
+    """
+
+    def __init__(
+        self,
+        n: int,
+        mode: Mode,
+        ignition: np.ndarray,
+        now_ns: Callable[[], int],
+        recover_timeout_s: float = 3.0,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.n = n
+        self.mode = mode
+        self.aggregator = BeliefAggregator(ignition)
+        self.now_ns = now_ns
+        self.recover_timeout_s = recover_timeout_s
+        self.clock = clock
+        tick_ns = DECISION_PERIOD_NS if mode is Mode.LOCKSTEP else None
+        self.visits: list[TickInbox[VisitWindow]] = [TickInbox(tick_ns) for _ in range(n)]
+        self.realtime_queue: list[VisitWindow] = []
+        self.status_tick = -1
+        self.status_seen = False
+        self.final = False
+        self.ready_sent = False
+        self.recovering_since: float | None = None
+        self.snapshots: list[BeliefSnapshot] = []
+        self.started = False
+
+    def stamp(self, tick: int) -> int:
+        """Stamp of tick ``tick`` in lockstep, the node clock in real time."""
+        if self.mode is Mode.LOCKSTEP:
+            return tick * DECISION_PERIOD_NS
+        return self.now_ns()
+
+    def belief(self, stamp: int) -> BeliefOut:
+        """The belief as it stands, with the node's status every ``STATUS_EVERY_TICKS``."""
+        aggregator = self.aggregator
+        status = None
+        if aggregator.ticks % STATUS_EVERY_TICKS == 0:
+            status = NodeStatus(
+                f"{NAME}: shared belief",
+                NAME,
+                "OK",
+                f"{aggregator.ticks} ticks merged",
+                {
+                    "ticks": aggregator.ticks,
+                    "score": float(aggregator.score),
+                    "believed_burning_cells": int(aggregator.burning.sum()),
+                },
+            )
+        # A copy: the belief changes in place with the next merge, maybe before this is sent.
+        burning = aggregator.burning.copy()
+        return BeliefOut(stamp, burning, aggregator.age_s(), float(aggregator.score), status)
+
+    # --- inputs -------------------------------------------------------------------------------
+
+    def on_startup(self, visits_matched: Callable[[], bool]) -> list[Output]:
+        """Start once every agent's visit publisher is matched (visits are volatile).
+
+        Not before the (latched) episode status is in: it tells a fresh start (waiting or
+        tick 0) from a restart into a running episode, which first recovers the belief.
+        """
+        if self.started or not self.status_seen:
+            return []
+        out: list[Output] = []
+        if self.recovering_since is not None:
+            waited = self.clock() - self.recovering_since
+            if not self.snapshots and waited < self.recover_timeout_s:
+                return []
+            out += self.finish_recovery()
+        elif not visits_matched():
+            return []
+        self.started = True
+        if not self.ready_sent:
+            out.append(self.belief(self.stamp(0)))
+            self.ready_sent = True
+            out.append(AckOut(NAME + READY_SUFFIX, 0))
+        return out + self.merge_lockstep()
+
+    def on_status(self, status: EpisodeStatus) -> list[Output]:
+        self.status_seen = True
+        if status.phase == "waiting":
+            return []
+        lockstep = self.mode is Mode.LOCKSTEP
+        check_status_tick(status.tick, self.status_tick, lockstep, AHEAD_TICKS)
+        out: list[Output] = []
+        # Only a real-time aggregator can be a restarted one (lockstep runs never respawn).
+        restarted = not lockstep and not self.started and status.tick > 0
+        if restarted and self.recovering_since is None:
+            out += self.begin_recovery()
+        self.status_tick = max(self.status_tick, status.tick)
+        self.final = self.final or status.final
+        if lockstep and self.started and status.tick == 0:
+            out.append(AckOut(NAME, 0))
+        return out + self.merge_lockstep()
+
+    def on_visit(self, k: int, stamp: int, window: VisitWindow) -> list[Output]:
+        inbox = self.visits[k]
+        if self.mode is Mode.REALTIME:
+            inbox.ceiling = self.now_ns() + REALTIME_AHEAD_NS
+            inbox.accept(stamp, window)
+            inbox.discard_below(stamp + 1)  # each visit is merged once: older stamps are replays
+            self.realtime_queue.append(window)
+            return []
+        inbox.ceiling = (max(self.status_tick, 0) + AHEAD_TICKS) * DECISION_PERIOD_NS
+        inbox.accept(stamp, window)
+        return self.merge_lockstep()
+
+    def on_snapshot(self, snapshot: BeliefSnapshot) -> None:
+        if self.recovering_since is not None and not self.started:
+            self.snapshots.append(snapshot)
+
+    def on_timer(self) -> list[Output]:
+        """Real time: one belief tick per 100 ms with the visits received meanwhile."""
+        if not self.started:
+            return []
+        windows, self.realtime_queue = self.realtime_queue, []
+        self.aggregator.merge(windows)
+        return [self.belief(self.stamp(0))]
+
+    # --- lockstep and recovery ----------------------------------------------------------------
+
+    def merge_lockstep(self) -> list[Output]:
+        """Merge every tick whose visits from all aircraft are in, in order."""
+        out: list[Output] = []
+        if self.mode is not Mode.LOCKSTEP or not self.started:
+            return out
+        while True:
+            tick = self.aggregator.ticks + 1
+            stamp = tick * DECISION_PERIOD_NS
+            if tick > self.status_tick or any(stamp not in inbox for inbox in self.visits):
+                return out
+            windows = [inbox.items[stamp] for inbox in self.visits]
+            for inbox in self.visits:
+                inbox.discard_below(stamp + DECISION_PERIOD_NS)
+            self.aggregator.merge(windows)
+            out += [self.belief(stamp), AckOut(NAME, stamp)]
+
+    def begin_recovery(self) -> list[Output]:
+        self.recovering_since = self.clock()
+        text = "episode already running: asking the agents for the belief"
+        return [LogOut(True, text), RequestOut()]
+
+    def finish_recovery(self) -> list[Output]:
+        if not self.snapshots:
+            return [LogOut(True, "no belief copy received: starting from the ignition seed")]
+        newest = max(self.snapshots, key=lambda s: s.time_s)
+        self.aggregator.restore(newest.time_s, newest.score, newest.believed, newest.age_s)
+        self.ready_sent = True
+        text = f"recovered the shared belief of t = {newest.time_s:.1f} s, score {newest.score:.0f}"
+        return [LogOut(False, text), self.belief(self.stamp(0))]
+
+
+__all__ = [
+    "NAME",
+    "AckOut",
+    "AggregatorProtocol",
+    "BeliefOut",
+    "LogOut",
+    "Output",
+    "RequestOut",
+]
