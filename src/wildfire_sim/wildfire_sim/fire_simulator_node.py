@@ -14,9 +14,10 @@ every fire step, and ``/wildfire/episode`` (phase, tick, scenario). Two modes:
 At the end the phase is ``terminated`` (fire at the border) or ``truncated`` (duration);
 once every reporter has finished the last tick the status carries ``complete: true``.
 
-Acknowledgements are checked before they count: an unknown reporter, a tick not yet
-announced (future) or one already acknowledged (a replay) is dropped and counted in the
-node's ``/diagnostics`` input-validation status.
+The node only decodes, calls and encodes: the episode clock and the acknowledgement barrier
+are :class:`wildfire_sim.protocol.FireProtocol`. Acknowledgements from an unknown reporter,
+of a tick not yet announced (future) or of one already acknowledged (a replay) are dropped
+and counted in the node's ``/diagnostics`` input-validation status.
 """
 
 from __future__ import annotations
@@ -26,13 +27,12 @@ from typing import Any
 
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.codecs import (
-    NodeStatus,
     clock_to_msg,
     diagnostics_to_msg,
     fire_grid_to_msg,
     fuel_grid_to_msg,
 )
-from wildfire_msgs_py.input_guard import DropReason, InputGuard, RejectedMessage
+from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.node_support import (
     ParamSpec,
     contract_publisher,
@@ -41,17 +41,30 @@ from wildfire_msgs_py.node_support import (
     run_node,
 )
 from wildfire_msgs_py.runtime import Node
-from wildfire_msgs_py.system_codecs import READY_SUFFIX, episode_to_msg
+from wildfire_msgs_py.system_codecs import episode_to_msg
 from wildfire_msgs_py.wire_checks import checked_ack
-from wildfire_sim.episode import DECISION_PERIOD_NS, EPISODE_DEFAULTS, FireEpisode, decisions_in
+from wildfire_sim.episode import (
+    DECISION_PERIOD_NS,
+    EPISODE_DEFAULTS,
+    MODES,
+    FireEpisode,
+    Mode,
+    decisions_in,
+)
 from wildfire_sim.errors import FireConfigError
+from wildfire_sim.protocol import (
+    NAME,
+    ClockOut,
+    DiagnosticsOut,
+    FireProtocol,
+    LogOut,
+    MapsOut,
+    Output,
+    StatusOut,
+)
 from wildfire_sim.shapes import Shape
 
-MODES = ("lockstep", "realtime")
 D = EPISODE_DEFAULTS
-NAME = "fire_simulator"
-STATUS_EVERY_TICKS = 10
-"""The node's status goes to ``/diagnostics`` once a second of flight and at the end."""
 PARAMETERS = (
     ParamSpec("seed", D.seed, "episode seed (fuel and fire randomness)", 0, 2**31 - 1),
     ParamSpec("shape", D.shape, "ignition shape", choices=tuple(s.value for s in Shape)),
@@ -78,19 +91,18 @@ class FireSimulatorNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(NAME, **kwargs)
         p = declare_parameters(self, PARAMETERS)
-        self.mode: str = p["mode"]
-        self.reporters: set[str] = {f"uav{k}" for k in range(p["n_aircraft"])}
-        self.reporters.add("belief_aggregator")
-        self.reporters |= {r.strip() for r in p["extra_reporters"].split(",") if r.strip()}
+        mode = Mode(p["mode"])
+        reporters = {f"uav{k}" for k in range(p["n_aircraft"])} | {"belief_aggregator"}
+        reporters |= {r.strip() for r in p["extra_reporters"].split(",") if r.strip()}
         self.scenario: dict[str, Any] = {
             "seed": p["seed"],
             "shape": p["shape"],
             "wind_x": p["wind_x"],
             "wind_y": p["wind_y"],
-            "mode": self.mode,
+            "mode": mode.value,
             "n_aircraft": p["n_aircraft"],
         }
-        self.episode = FireEpisode(
+        episode = FireEpisode(
             p["seed"],
             p["shape"],
             (p["wind_x"], p["wind_y"]),
@@ -98,10 +110,7 @@ class FireSimulatorNode(Node):
             preburn_steps=p["preburn_steps"],
             border_cells=p["border_cells"],
         )
-        self.ready: set[str] = set()
-        self.acked: dict[str, int] = {}
-        self.started = False
-        self.complete = False
+        self.protocol = protocol = FireProtocol(episode, mode, reporters)
         self.input_guard = InputGuard(self.get_logger().warning)
 
         self.fire_pub = contract_publisher(self, contract.FIRE_MAP)
@@ -114,120 +123,49 @@ class FireSimulatorNode(Node):
         contract_subscription(
             self,
             contract.ACK,
-            self.ack_callback,
+            lambda msg: self.publish(protocol.on_ack(*checked_ack(msg, protocol.reporters))),
             qos=contract.QosSpec(depth=1000, transient_local=True),
             guard=self.input_guard,
         )
-        self.realtime_timer = (
-            self.create_timer(DECISION_PERIOD_NS / 1e9, self.realtime_timer_callback)
-            if self.mode == "realtime"
-            else None
-        )
-        self.publish_maps()
-        self.publish_status("waiting", tick=-1)
+        if mode is Mode.REALTIME:
+            self.create_timer(DECISION_PERIOD_NS / 1e9, lambda: self.publish(protocol.on_timer()))
+        self.publish(protocol.start())
         self.get_logger().info(
-            f"{self.mode} episode seed {p['seed']} shape {p['shape']} wind "
-            f"({p['wind_x']:+.3f}, {p['wind_y']:+.3f}); waiting for {sorted(self.reporters)}"
+            f"{mode.value} episode seed {p['seed']} shape {p['shape']} wind "
+            f"({p['wind_x']:+.3f}, {p['wind_y']:+.3f}); waiting for {sorted(reporters)}"
         )
 
-    # --- publishing ---------------------------------------------------------------------------
+    @property
+    def episode(self) -> FireEpisode:
+        return self.protocol.episode
 
-    def stamp_ns(self) -> int:
-        """Sim time of the current tick."""
-        return self.episode.decisions * DECISION_PERIOD_NS
+    @property
+    def complete(self) -> bool:
+        """True once every reporter has finished the last tick."""
+        return self.protocol.complete
 
-    def publish_maps(self) -> None:
-        stamp = self.stamp_ns()
-        self.fire_pub.publish(fire_grid_to_msg(self.episode.burning, stamp))
-        self.fuel_pub.publish(fuel_grid_to_msg(self.episode.fuel, stamp))
-
-    def publish_status(self, phase: str, tick: int, complete: bool = False) -> None:
-        values = {
-            "tick": tick,
-            "time_s": max(tick, 0) * DECISION_PERIOD_NS / 1e9,
-            **self.scenario,
-            "complete": "true" if complete else "false",
-        }
-        self.episode_pub.publish(episode_to_msg(phase, values))
-
-    def announce_tick(self) -> None:
-        """Status (phase, tick) then, in lockstep, the clock of the current tick."""
-        self.publish_status(self.episode.phase, self.episode.decisions)
-        if self.mode == "lockstep":
-            self.clock_pub.publish(clock_to_msg(self.stamp_ns()))
-        if self.episode.decisions % STATUS_EVERY_TICKS == 0:
-            self.publish_diagnostics()
-
-    def publish_diagnostics(self) -> None:
-        """The node's status on ``/diagnostics`` (once a second of flight and at the end)."""
-        status = NodeStatus(
-            f"{NAME}: episode",
-            NAME,
-            "OK",
-            f"{self.episode.phase} at tick {self.episode.decisions}",
-            {
-                "tick": self.episode.decisions,
-                "burning_cells": int(self.episode.burning.sum()),
-                "complete": int(self.complete),
-            },
-        )
-        inputs = self.input_guard.status(NAME, NAME)
-        self.diagnostics_pub.publish(diagnostics_to_msg([status, inputs], self.stamp_ns()))
-
-    # --- callbacks ----------------------------------------------------------------------------
-
-    def ack_callback(self, msg: Any) -> None:
-        reporter, stamp = checked_ack(msg, self.reporters)
-        if reporter.endswith(READY_SUFFIX):
-            self.ready.add(reporter[: -len(READY_SUFFIX)])
-        elif stamp > self.stamp_ns() or not self.started:
-            # A tick not announced yet: acknowledging it would let the episode run on
-            # without the reporter.
-            raise RejectedMessage(DropReason.FUTURE, f"{reporter} acknowledged {stamp} ns")
-        elif stamp <= self.acked.get(reporter, -1):
-            raise RejectedMessage(DropReason.STALE, f"{reporter} acknowledged {stamp} ns again")
-        else:
-            self.acked[reporter] = stamp
-        if not self.started:
-            if self.reporters <= self.ready:
-                self.started = True
-                self.get_logger().info("every reporter is ready: tick 0")
-                self.announce_tick()
-            return
-        if self.mode == "lockstep":
-            self.advance_lockstep()
-
-    def advance_lockstep(self) -> None:
-        """Next tick once every reporter has finished the current one."""
-        stamp = self.stamp_ns()
-        while not self.complete and all(self.acked.get(r, -1) >= stamp for r in self.reporters):
-            if self.episode.final:
-                self.complete = True
-                self.publish_status(self.episode.phase, self.episode.decisions, complete=True)
-                self.publish_diagnostics()
-                self.get_logger().info(
-                    f"episode {self.episode.phase} after {self.episode.decisions} decisions"
-                )
-                return
-            if self.episode.advance():
-                self.publish_maps()
-            self.announce_tick()
-            stamp = self.stamp_ns()
-
-    def realtime_timer_callback(self) -> None:
-        if not self.started or self.complete:
-            return
-        if self.episode.final:
-            self.complete = True
-            self.publish_status(self.episode.phase, self.episode.decisions, complete=True)
-            self.publish_diagnostics()
-            self.get_logger().info(f"episode {self.episode.phase} at {self.stamp_ns() / 1e9:.1f} s")
-            return
-        if self.episode.advance():
-            self.publish_maps()
-            self.announce_tick()
-        elif self.episode.final:
-            self.announce_tick()
+    def publish(self, outputs: list[Output]) -> None:
+        """Encode and publish the protocol's outputs, in their order."""
+        for out in outputs:
+            if isinstance(out, MapsOut):
+                self.fire_pub.publish(fire_grid_to_msg(out.burning, out.stamp))
+                self.fuel_pub.publish(fuel_grid_to_msg(out.fuel, out.stamp))
+            elif isinstance(out, StatusOut):
+                values = {
+                    "tick": out.tick,
+                    "time_s": max(out.tick, 0) * DECISION_PERIOD_NS / 1e9,
+                    **self.scenario,
+                    "complete": "true" if out.complete else "false",
+                }
+                self.episode_pub.publish(episode_to_msg(out.phase, values))
+            elif isinstance(out, ClockOut):
+                self.clock_pub.publish(clock_to_msg(out.stamp))
+            elif isinstance(out, DiagnosticsOut):
+                inputs = self.input_guard.status(NAME, NAME)
+                message = diagnostics_to_msg([out.status, inputs], out.stamp)
+                self.diagnostics_pub.publish(message)
+            elif isinstance(out, LogOut):
+                self.get_logger().info(out.text)
 
 
 def main(args: list[str] | None = None) -> None:
