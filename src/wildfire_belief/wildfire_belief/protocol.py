@@ -96,7 +96,7 @@ class AggregatorProtocol:
         self.clock = clock
         tick_ns = DECISION_PERIOD_NS if mode is Mode.LOCKSTEP else None
         self.visits: list[TickInbox[VisitWindow]] = [TickInbox(tick_ns) for _ in range(n)]
-        self.realtime_queue: list[VisitWindow] = []
+        self.realtime_queue: list[tuple[int, VisitWindow]] = []
         self.status_tick = -1
         self.status_seen = False
         self.final = False
@@ -179,7 +179,7 @@ class AggregatorProtocol:
             inbox.ceiling = self.now_ns() + REALTIME_AHEAD_NS
             inbox.accept(stamp, window)
             inbox.discard_below(stamp + 1)  # each visit is merged once: older stamps are replays
-            self.realtime_queue.append(window)
+            self.realtime_queue.append((stamp, window))
             return []
         inbox.ceiling = (max(self.status_tick, 0) + AHEAD_TICKS) * DECISION_PERIOD_NS
         inbox.accept(stamp, window)
@@ -193,8 +193,9 @@ class AggregatorProtocol:
         """Real time: one belief tick per 100 ms with the visits received meanwhile."""
         if not self.started:
             return []
-        windows, self.realtime_queue = self.realtime_queue, []
-        self.aggregator.merge(windows)
+        stamped, self.realtime_queue = self.realtime_queue, []
+        # Visits of different aircraft arrive in any order: none may undo a newer one.
+        self.aggregator.merge(self.aggregator.fresher_visits(stamped))
         return [self.belief(self.stamp(0))]
 
     # --- lockstep and recovery ----------------------------------------------------------------
