@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from backend_cases import BACKENDS, require_backend
 from wildfire_bringup import hosts
 from wildfire_msgs_py.network import (
     CONFLICTING_HOST_VARIABLES,
@@ -41,7 +42,6 @@ from wildfire_msgs_py.network import (
 )
 
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")
-BACKENDS = ["rclpy", "dds"]
 REAL_INTERFACE = "eth0"
 RUN_TIMEOUT_S = 150.0
 SUBNET_PREFIX = bytes([10, 213, 0])
@@ -69,16 +69,6 @@ def _namespaces_of(pid: int) -> list[str]:
 def _links(namespace: str | None = None) -> set[str]:
     where = ["-n", namespace] if namespace else []
     return {link["ifname"] for link in json.loads(_ip(*where, "-j", "link", "show"))}
-
-
-def _require_backend(backend: str) -> None:
-    if backend == "rclpy" and os.environ.get("WILDFIRE_ROS_BACKEND") == "dds":
-        pytest.skip("the rclpy case runs in the rclpy pass of scripts/test.sh")
-    module = "rclpy" if backend == "rclpy" else "cyclonedds"
-    try:
-        __import__(module)
-    except ImportError as error:
-        pytest.skip(f"backend {backend}: {module} does not import ({error})")
 
 
 def _env(backend: str) -> dict[str, str]:
@@ -320,7 +310,7 @@ def test_four_hosts_equal_eval_and_stay_off_the_network(backend: str, tmp_path: 
     from wildfire_learning.env import EnvConfig
     from wildfire_learning.evaluate import evaluate
 
-    _require_backend(backend)
+    require_backend(backend, own_pass_only=True)
     # Two aircraft on four hosts: every agent alone on its host (and one process less to start).
     n, seed, duration, n_hosts = 2, 5, 10.0, 4
     root_links = _links()
@@ -387,7 +377,7 @@ def test_four_hosts_equal_eval_and_stay_off_the_network(backend: str, tmp_path: 
 @pytest.mark.timeout(RUN_TIMEOUT_S)
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_sigint_mid_run_removes_every_namespace(backend: str, tmp_path: Path) -> None:
-    _require_backend(backend)
+    require_backend(backend, own_pass_only=True)
     logs = tmp_path / "logs"
     args = ["--aircraft", "2", "--policy", "rh", "--fast", "--duration", "120", "--hosts", "3"]
     process = _start([*args, "--log-dir", str(logs)], backend)

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from backend_cases import BACKENDS, require_backend
 from wildfire_bringup import hosts
 from wildfire_bringup.netfaults import (
     FaultSpecError,
@@ -36,22 +37,11 @@ from wildfire_bringup.netfaults import (
 )
 
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")
-BACKENDS = ["rclpy", "dds"]
 RUN_TIMEOUT_S = 240.0
 RECOVERY_TARGET_S = 3.0
 
 _UNAVAILABLE = hosts.namespaces_unavailable()
 needs_namespaces = pytest.mark.skipif(_UNAVAILABLE is not None, reason=str(_UNAVAILABLE))
-
-
-def _require_backend(backend: str) -> None:
-    if backend == "rclpy" and os.environ.get("WILDFIRE_ROS_BACKEND") == "dds":
-        pytest.skip("the rclpy case runs in the rclpy pass of scripts/test.sh")
-    module = "rclpy" if backend == "rclpy" else "cyclonedds"
-    try:
-        __import__(module)
-    except ImportError as error:
-        pytest.skip(f"backend {backend}: {module} does not import ({error})")
 
 
 def _run(args: list[str], backend: str) -> tuple[dict[str, object], str]:
@@ -168,7 +158,7 @@ def test_bench_network_without_root_says_so(monkeypatch: pytest.MonkeyPatch) -> 
 @pytest.mark.timeout(RUN_TIMEOUT_S + 30)
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_realtime_with_netem_and_a_partition_recovers(backend: str, tmp_path: Path) -> None:
-    _require_backend(backend)
+    require_backend(backend, own_pass_only=True)
     args = ["--aircraft", "2", "--policy", "rh", "--seed", "3", "--realtime", "--duration", "20"]
     args += ["--hosts", "4", "--netem", "delay 20ms 10ms loss 2%", "--partition", "1:4:6"]
     summary, stderr = _run([*args, "--log-dir", str(tmp_path / "logs")], backend)
@@ -203,7 +193,7 @@ def test_lockstep_partition_resumes_and_equals_eval(backend: str, tmp_path: Path
     from wildfire_learning.env import EnvConfig
     from wildfire_learning.evaluate import evaluate
 
-    _require_backend(backend)
+    require_backend(backend, own_pass_only=True)
     n, seed, duration = 2, 5, 15.0
     args = ["--aircraft", str(n), "--policy", "rh", "--seed", str(seed), "--fast"]
     args += ["--duration", str(duration), "--wind", "0.3,-0.2", "--hosts", "4"]

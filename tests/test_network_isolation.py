@@ -33,6 +33,8 @@ from pathlib import Path
 
 import pytest
 
+from backend_cases import BACKENDS, require_backend
+
 # Not marked `dds`: each case picks its backend itself, so the second (dds) pass of
 # scripts/test.sh would only repeat it.
 
@@ -192,14 +194,6 @@ def _child_env(backend: str, **extra: str) -> dict[str, str]:
     return env
 
 
-def _require_backend(backend: str) -> None:
-    module = "rclpy" if backend == "rclpy" else "cyclonedds"
-    try:
-        __import__(module)
-    except ImportError as error:
-        pytest.skip(f"backend {backend}: {module} does not import ({error})")
-
-
 def _run_system(namespace: Namespace, env: dict[str, str], log_dir: Path) -> dict[str, object]:
     command = [WILDFIRE, "run", "--aircraft", "2", "--policy", "rh", "--fast", "--json"]
     command += ["--duration", str(RUN_DURATION_S), "--log-dir", str(log_dir)]
@@ -211,9 +205,6 @@ def _run_system(namespace: Namespace, env: dict[str, str], log_dir: Path) -> dic
     score = summary.get("score")
     assert isinstance(score, int | float) and math.isfinite(score), summary
     return summary
-
-
-BACKENDS = ["rclpy", "dds"]
 
 
 def test_the_counter_sees_a_routed_datagram_and_not_loopback(netns: Namespace) -> None:
@@ -242,7 +233,7 @@ def test_defaults_keep_the_system_off_the_network(
     netns: Namespace, backend: str, tmp_path: Path
 ) -> None:
     """No DDS variable set: the whole system runs, discovers itself, and sends nothing out."""
-    _require_backend(backend)
+    require_backend(backend)
     before = netns.tx_packets()
     summary = _run_system(netns, _child_env(backend), tmp_path / "logs")
     after = netns.tx_packets()
@@ -275,7 +266,7 @@ def test_an_explicit_opt_in_does_reach_the_network(
     Without it the test above could pass because the counter never moves; this also proves that
     the runtime leaves a user's choice alone (the opt-in in docs/deployment.md works).
     """
-    _require_backend(backend)
+    require_backend(backend)
     before = netns.tx_packets()
     summary = _run_system(netns, _opt_in_env(backend), tmp_path / "logs")
     after = netns.tx_packets()
