@@ -299,7 +299,8 @@ def test_bag_recorded_by_wildfire_run_rebuilds_environment_transitions(tmp_path:
 def test_belief_lockstep_recording_is_compact_and_rebuilds_every_transition(
     tmp_path: Path,
 ) -> None:
-    """SPEC 4 / issue 13: a 60 s 2-aircraft belief lockstep bag, at most 50 KB per sim second."""
+    """Bag size (issue 13; docs/ros2_layer.md, Tools): a 60 s 2-aircraft belief lockstep bag
+    records at most 50 KB per sim second."""
     from mcap.reader import make_reader
     from rosbags.highlevel import AnyReader
 

@@ -1,4 +1,6 @@
-"""The network rule (SPEC 3.3, issue 11 item 3): with no DDS variable set, nothing leaves the host.
+"""The network rule (issue 11 item 3): with no DDS variable set, nothing leaves the host.
+
+See docs/deployment.md, "Network: one host by default, several hosts by choice".
 
 Each test builds its own network namespace: loopback up, plus a veth pair (or a dummy device)
 whose end ``wfx0`` has an address and carries the default route, so any multicast discovery or

@@ -1,4 +1,4 @@
-"""Dubins aircraft commanded by bank-angle increments at 10 Hz (SPEC 2.2).
+"""Dubins aircraft commanded by bank-angle increments at 10 Hz (docs/model.md, Aircraft).
 
 Kinematics: ``x' = v cos(psi)``, ``y' = v sin(psi)``, ``psi' = g tan(phi) / v`` with heading psi
 measured counter-clockwise from east (so a positive bank turns the aircraft to the left,
@@ -101,7 +101,7 @@ def start_poses(
     min_range_m: float = 150.0,
     max_range_m: float = 300.0,
 ) -> AircraftState:
-    """Start poses (SPEC 2.2): uniform range and bearing around the fire, uniform heading.
+    """Start poses: uniform range and bearing around the fire, uniform heading.
 
     Draws, per aircraft, range then bearing then heading from ``rng``; bank is 0.
     """

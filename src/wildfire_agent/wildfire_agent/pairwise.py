@@ -1,4 +1,4 @@
-"""Pairwise relative states (SPEC 2.5): how the ownship sees one other aircraft.
+"""Pairwise relative states: how the ownship sees one other aircraft (docs/model.md, Q-network).
 
 For ownship i and other aircraft j the state is ``(phi0, rho, theta, psi, phi1)``: own bank,
 range, bearing of j relative to i's heading, j's heading relative to i's heading, j's bank.

@@ -8,7 +8,7 @@ float32 (one per other aircraft) and returning pairwise Q-values (B, K, 2) for t
 (-5 deg, +5 deg); the image branch runs once per ownship, however many aircraft it pairs
 with. It carries a JSON card as the TorchScript extra file ``wildfire_policy.json`` with at
 least ``{"approach": "obs" | "belief"}``. With several other aircraft the ownship sums its
-pairwise Q-values (SPEC 2.5): ``a = argmax_a sum_j Q(s_j, a)``.
+pairwise Q-values: ``a = argmax_a sum_j Q(s_j, a)`` (docs/model.md, Q-network).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Receding-horizon baseline controller (SPEC 2.6).
+"""Receding-horizon baseline controller (docs/model.md, Baselines).
 
 Every ``replan_every`` (tau) decisions, each aircraft plans on its own (not jointly) a
 sequence of ``horizon`` (T) bank actions that maximises the summed observation-based reward

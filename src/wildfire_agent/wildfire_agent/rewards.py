@@ -1,4 +1,6 @@
-"""Rewards of the observation-based approach (SPEC 2.3) and the proximity penalty.
+"""Rewards of the observation-based approach and the proximity penalty.
+
+See docs/model.md, Sensor and the observation approach.
 
 Per aircraft and decision, with the weights of :class:`ObservationRewardWeights`:
 

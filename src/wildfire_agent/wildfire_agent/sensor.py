@@ -1,4 +1,6 @@
-"""The aircraft's fire sensor (SPEC 2.3): a polar image relative to position and heading.
+"""The aircraft's fire sensor: a polar image relative to position and heading.
+
+See docs/model.md, Sensor and the observation approach.
 
 The image is ``(N_BEARINGS, N_RANGES) = (30, 40)``, indexed ``[bearing, range]``:
 
@@ -8,7 +10,7 @@ The image is ``(N_BEARINGS, N_RANGES) = (30, 40)``, indexed ``[bearing, range]``
 * range bin i samples at ``RANGES_M[i] = 10 + 490 * (i / 39)**2`` metres: 10 m to 500 m,
   spacing growing linearly from 0.3 m near the aircraft to 25 m at the far edge, so the
   image resolves the fire finely close by and coarsely far away. (The paper's "intervals
-  from 10 m to 100 m" cannot hold with 40 cut-points and a 500 m range; see the SPEC.)
+  from 10 m to 100 m" cannot hold with 40 cut-points and a 500 m range; see docs/model.md.)
 
 Each sample takes the burning value of the grid cell that contains it (the nearest cell
 centre), 0 outside the map.

@@ -1,4 +1,4 @@
-"""The belief map shared by the team (SPEC 2.4), batched over environments.
+"""The belief map shared by the team (docs/model.md, Shared belief), batched over environments.
 
 Per cell: believed burning (bool) and the time since the cell was last visited, capped at
 255 s. Time is counted in integer deciseconds (one decision = 1 ds), so ages are exact and

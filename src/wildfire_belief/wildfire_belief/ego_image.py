@@ -1,4 +1,6 @@
-"""The belief as the network sees it (SPEC 2.4): 2 x 100 x 100, centred and heading-aligned.
+"""The belief as the network sees it: 2 x 100 x 100, centred and heading-aligned.
+
+See docs/model.md, Shared belief.
 
 Image pixel ``[i, j]`` shows the belief at the point ``(i - 50) * 10`` m ahead of the aircraft
 and ``(j - 50) * 10`` m to its right: the aircraft sits at pixel (50, 50), rows run forward

@@ -1,4 +1,6 @@
-"""Which cells an aircraft visits (SPEC 2.4): every cell whose centre lies within 100 m.
+"""Which cells an aircraft visits: every cell whose centre lies within 100 m.
+
+See docs/model.md, Shared belief.
 
 An aircraft's visits fit in a ``VISIT_WINDOW`` x ``VISIT_WINDOW`` (21 x 21) window of cells
 centred on the cell it is in: a cell centre 11 cells away is at least 105 m off. The agent

@@ -1,6 +1,7 @@
 """Q-network architectures to train: the paper's, and a faster one for the belief image.
 
-* ``paper`` — :class:`wildfire_learning.network.QNetwork` on the full image (SPEC 2.5).
+* ``paper`` — :class:`wildfire_learning.network.QNetwork` on the full image (docs/model.md,
+  Q-network).
 * ``fast`` — the same network behind a 2 x 2 average pool of the input image, so the
   100 x 100 belief image is seen at 50 x 50 (one pixel = 20 m; burning becomes the burning
   fraction of the 2 x 2 block, age its mean). Its convolutions cost ~4x less; on this CPU the

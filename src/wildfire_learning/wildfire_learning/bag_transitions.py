@@ -15,7 +15,7 @@ Topics used (one episode per bag):
   the start pose the first transition is lost). Every aircraft must have every tick.
 * ``/uavK/bank_cmd`` (optional): the bank commanded at each decision; the action is the sign
   of its change from the previous bank (at the +-50 degree limit an unchanged bank means the
-  action towards the limit, which SPEC 2.2 ignores). Without it, banks of the states are used.
+  action towards the limit, which the dynamics ignore). Without it, banks of the states are used.
 * ``/wildfire/fire_map`` (required): the pre-burnt fire, then one map per fire step. Decision
   ``t`` (1-based) sees fire map ``t // 25``, as in the environment. Maps are placed by their
   header stamps when these increase (step = round(stamp delta / 2.5 s), a re-published map

@@ -1,4 +1,6 @@
-"""Deep Q-learning of the pairwise Q-network (SPEC 2.5), in the style of CleanRL's ``dqn.py``.
+"""Deep Q-learning of the pairwise Q-network, in the style of CleanRL's ``dqn.py``.
+
+The model it learns is described in docs/model.md, Q-network.
 
 One explicit loop: batched environments (``num_envs`` episodes of two aircraft stepping
 together, actions of every aircraft from one batched forward pass), every aircraft's
@@ -6,13 +8,14 @@ transition stored in one replay (the network is shared), the replay prefilled wi
 actions, then one training iteration (mini-batch 64, AdaMax, MSE Bellman error against a
 target network copied every 1000 iterations) per ``train_frequency`` new samples, epsilon
 linear from 1 to 0.1 over ``exploration_samples`` samples. Every ``eval_every`` iterations
-the greedy network is scored with the SPEC 2.7 protocol on fixed held-out seeds
-(``eval_seed_base`` and up; training episodes use seeds below it), the learning curve is
-written (CSV + PNG) and a checkpoint (networks, optimizer, replay, RNG states, counters) is
-saved so ``--resume`` continues where the run stopped (``checkpoint.py``). At the end the
-network is exported as a TorchScript policy (``export.py``) with its JSON card
-(``model_card.py``). This module holds the hyperparameters and the loop; every field of
-:class:`TrainConfig` is a ``wildfire train`` option, its help text in the field's metadata.
+the greedy network is scored with the evaluation protocol (docs/model.md, Evaluation) on
+fixed held-out seeds (``eval_seed_base`` and up; training episodes use seeds below it), the
+learning curve is written (CSV + PNG) and a checkpoint (networks, optimizer, replay, RNG
+states, counters) is saved so ``--resume`` continues where the run stopped
+(``checkpoint.py``). At the end the network is exported as a TorchScript policy
+(``export.py``) with its JSON card (``model_card.py``). This module holds the
+hyperparameters and the loop; every field of :class:`TrainConfig` is a ``wildfire train``
+option, its help text in the field's metadata.
 
 Decisions beyond the paper (documented here, reported in the card):
 
@@ -106,7 +109,7 @@ class TrainConfig:
     )
     arch: str = hyperparameter(
         "paper",
-        "Network: ``paper`` (SPEC 2.5); belief only: ``fast`` / ``lite`` (input average-pooled "
+        "Network: ``paper`` (the paper's); belief only: ``fast`` / ``lite`` (input average-pooled "
         "to 50x50 / 25x25).",
         choices=ARCHITECTURES,
     )
@@ -322,7 +325,7 @@ def max_rss_mb() -> float:
 
 
 def evaluate_greedy(model: nn.Module, config: TrainConfig) -> EvaluationSummary:
-    """SPEC 2.7 score of the greedy network on the held-out evaluation seeds."""
+    """Evaluation score of the greedy network on the held-out evaluation seeds."""
     model.eval()
     try:
         controller = GreedyController(model, config.approach, config.channels_last)
@@ -346,7 +349,8 @@ def td_update(
         images = images.contiguous(memory_format=torch.channels_last)
         next_images = next_images.contiguous(memory_format=torch.channels_last)
     with torch.no_grad():
-        # Pairwise Q-values are summed over the other aircraft (SPEC 2.5); K = 1 for two.
+        # Pairwise Q-values are summed over the other aircraft (docs/model.md, Q-network);
+        # K = 1 for two.
         next_q = target_network(next_images, batch.next_states).sum(dim=1)
         if config.double_q:
             # Double DQN: the online network picks the next action, the target scores it.
@@ -632,8 +636,8 @@ def train(
                     q_network, target_network, optimizer, replay, config, rng
                 )
                 state.iterations += 1
-                # CleanRL copies the target on global steps; here on training iterations
-                # (SPEC 2.5).
+                # CleanRL copies the target on global steps; here on training iterations,
+                # as in the paper (docs/model.md, Q-network).
                 if state.iterations % config.target_network_frequency == 0:
                     target_network.load_state_dict(q_network.state_dict())
                 if config.eval_every and state.iterations % config.eval_every == 0:

@@ -16,8 +16,8 @@ Observation space (``observation="obs"`` or ``"belief"``)
 Rewards
     ``reward="obs"``: the observation-based reward r1 + r2 + r3 + r4 of each aircraft.
     ``reward="belief"``: the team reward (newly seen burning cells) minus
-    ``belief_proximity_weight * sum_j exp(-rho_j / c)``. Either way ``team_reward`` (the SPEC
-    2.7 score increment) is returned too, and ``scores`` accumulates it.
+    ``belief_proximity_weight * sum_j exp(-rho_j / c)``. Either way ``team_reward`` (the
+    score increment, docs/model.md, Evaluation) is returned too, and ``scores`` accumulates it.
 Starting state
     Episode seed -> shape (uniform over ``shapes``), wind (uniform in [-max_wind, max_wind]^2
     unless fixed), fuel, start poses 150-300 m around the seed at uniform bearing and heading.

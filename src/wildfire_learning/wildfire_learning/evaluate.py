@@ -1,4 +1,6 @@
-"""Evaluation protocol (SPEC 2.7): score = summed team belief reward, over seeded episodes.
+"""Evaluation protocol: score = summed team belief reward, over seeded episodes.
+
+See docs/model.md, Evaluation.
 
 All episodes run as one batch (each with its own seed, so results do not depend on how many
 run together). Reported per episode: score, flight time, belief IoU at the end (believed

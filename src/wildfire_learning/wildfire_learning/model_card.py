@@ -59,7 +59,7 @@ def policy_card(
         "offline": options.offline,
         "device": options.device,
         "evaluation": {
-            "protocol": "SPEC 2.7 team belief reward, greedy network, batched",
+            "protocol": "team belief reward (docs/model.md, Evaluation), greedy network, batched",
             "iteration": int(final["iteration"]),
             "shapes": list(config.eval_shapes),
             "seeds": [seeds[0], seeds[-1]],

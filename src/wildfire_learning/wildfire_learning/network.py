@@ -1,4 +1,4 @@
-"""The paper's Q-network (SPEC 2.5), shared by both approaches.
+"""The paper's Q-network, shared by both approaches (docs/model.md, Q-network).
 
 Image branch: conv 64@3x3 -> maxpool 2 -> conv 64@3x3 -> maxpool 2 -> conv 64@3x3 -> maxpool 2
 -> dense 500 -> dense 100. State branch: 5 dense layers of 100. The two 100-wide outputs are

@@ -99,7 +99,7 @@ class WildfireParallelEnv(ParallelEnv):  # type: ignore[misc]  # pettingzoo is u
 
     @property
     def score(self) -> int:
-        """Team score so far (SPEC 2.7)."""
+        """Team score so far (docs/model.md, Evaluation)."""
         return int(self._env.scores[0])
 
 

@@ -1,4 +1,6 @@
-"""Results report: the paper's results table (SPEC 2.7), reproduced on this project's controllers.
+"""Results report: the paper's results table, reproduced on this project's controllers.
+
+See docs/model.md, Evaluation.
 
 Every (controller, scenario) pair is one :func:`~wildfire_learning.evaluate.evaluate` run on
 the same seeds, so a row compares controllers episode by episode. Each result is kept as JSON
@@ -11,7 +13,7 @@ changing their code.
 The report itself is a Markdown table (mean +- standard error, ratio to our receding horizon
 ``rh``, fraction of the score ceiling), the paper's ratios beside ours, and a bar chart. The
 paper's receding horizon is uncoordinated, so its ratios are set beside ours to ``rh-paper``
-(the same baseline, SPEC 2.6); ours to ``rh`` are given too.
+(the same baseline, docs/model.md, Baselines); ours to ``rh`` are given too.
 """
 
 from __future__ import annotations
@@ -58,7 +60,7 @@ PAPER_RESULTS: dict[str, dict[str, tuple[float, float]]] = {
         PAPER_BASELINE: (1646.4, 103.0),
     },
 }
-"""Julian & Kochenderfer's results (SPEC 2.7): mean and standard error per scenario; its
+"""Julian & Kochenderfer's results: mean and standard error per scenario; its
 receding horizon is the uncoordinated one, ``rh-paper`` here."""
 PAPER_SCENARIOS = ("circular:2", "circular:3", "circular:4", "t:2", "arc:2")
 

@@ -1,7 +1,7 @@
 """Stochastic cellular wildfire model, batched over independent environments.
 
-The model (SPEC 2.1, after Bertsimas et al. and Julian & Kochenderfer) keeps per cell a
-fuel amount F >= 0 and a burning flag B. One fire step (2.5 s):
+The model (after Bertsimas et al. and Julian & Kochenderfer; see docs/model.md, Fire) keeps
+per cell a fuel amount F >= 0 and a burning flag B. One fire step (2.5 s):
 
 * burning cells consume ``burn_rate`` fuel; a burning cell whose fuel reaches 0 goes out;
 * a non-burning cell with fuel ignites with probability
@@ -45,7 +45,7 @@ MAX_SPREAD_PROBABILITY = 0.99
 
 @dataclass(frozen=True)
 class FireParams:
-    """Parameters of the fire model (defaults: SPEC 2.1 and the authors' scripts)."""
+    """Parameters of the fire model (defaults: the paper and the authors' scripts)."""
 
     fuel_min: int = 15
     """Smallest initial fuel of a cell (integer, inclusive)."""

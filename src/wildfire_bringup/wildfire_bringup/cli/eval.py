@@ -1,4 +1,4 @@
-"""``wildfire eval``: score a controller on seeded episodes (SPEC 2.7)."""
+"""``wildfire eval``: score a controller on seeded episodes (docs/model.md, Evaluation)."""
 
 from __future__ import annotations
 

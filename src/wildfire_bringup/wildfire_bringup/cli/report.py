@@ -197,7 +197,7 @@ def run(args: argparse.Namespace) -> int:
         f"Seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} episodes, the same for every controller), "
         f"random wind in [-{base.max_wind:g}, {base.max_wind:g}]^2, flights of at most "
         f"{args.duration:g} s ending when the fire comes within {base.border_cells} cells of the "
-        "border (SPEC 2.7)."
+        "border (docs/model.md, Evaluation)."
     )
     markdown = results_markdown(results, scenarios, controllers, protocol)
     (out_dir / "results.md").write_text(markdown)

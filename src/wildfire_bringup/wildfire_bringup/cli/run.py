@@ -227,7 +227,7 @@ def build_spec(args: argparse.Namespace) -> Any:
 
 
 def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> dict[str, Any]:
-    """Summary metrics of a finished run (SPEC 2.7 score and trajectory-derived metrics)."""
+    """Summary metrics of a finished run (score, ceiling and trajectory-derived metrics)."""
     from wildfire_belief.belief import belief_iou, mean_age_at_burning, score_ceiling
     from wildfire_sim.episode import initial_fire
 
@@ -285,7 +285,8 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         result["missed_deadline_fraction"] = missed / decided if decided else 0.0
     ignition = initial_fire(spec.seed, spec.shape, spec.wind)
     if monitor.burned is not None:
-        # The belief starts as the ignition seed (SPEC 2.4), as in the aggregator.
+        # The belief starts as the ignition seed (docs/model.md, Shared belief), as in the
+        # aggregator.
         ceiling = score_ceiling(monitor.burned[None], ignition.burning)[0]
         result["score_ceiling"] = int(ceiling)
         result["ceiling_fraction"] = result["score"] / max(int(ceiling), 1)
