@@ -68,18 +68,23 @@ def _frame(header: Any, expected: str = MAP_FRAME) -> None:
         raise _reject(DropReason.WRONG_FRAME, f"frame {header.frame_id!r}, expected {expected!r}")
 
 
-def _map_grid(msg: Any) -> np.ndarray:
-    """The (GRID_SIZE, GRID_SIZE) grid of a map-sized OccupancyGrid in frame ``map``."""
+def _square_layout(msg: Any, side: int, what: str) -> None:
+    """An OccupancyGrid in frame ``map`` of ``side`` x ``side`` cells of the map's size."""
     _frame(msg.header)
-    if (msg.info.height, msg.info.width) != (GRID_SIZE, GRID_SIZE):
+    if (msg.info.height, msg.info.width) != (side, side):
         raise _reject(
             DropReason.MALFORMED,
-            f"grid {msg.info.height} x {msg.info.width}, expected {GRID_SIZE} x {GRID_SIZE}",
+            f"{what} {msg.info.height} x {msg.info.width}, expected {side} x {side}",
         )
     if msg.info.resolution != CELL_SIZE_M:
         raise _reject(
             DropReason.OUT_OF_RANGE, f"resolution {msg.info.resolution}, expected {CELL_SIZE_M}"
         )
+
+
+def _map_grid(msg: Any) -> np.ndarray:
+    """The (GRID_SIZE, GRID_SIZE) grid of a map-sized OccupancyGrid in frame ``map``."""
+    _square_layout(msg, GRID_SIZE, "grid")
     return grid_from_msg(msg)
 
 
@@ -125,16 +130,7 @@ def checked_stamped_state(msg: Any, max_bank_rad: float) -> tuple[int, np.ndarra
 def checked_visit(msg: Any, window_side: int) -> tuple[int, VisitWindow]:
     """Visit window -> (stamp ns, window) of the expected size, origin on the cell grid."""
     stamp = _stamp(msg.header)
-    _frame(msg.header)
-    if (msg.info.height, msg.info.width) != (window_side, window_side):
-        raise _reject(
-            DropReason.MALFORMED,
-            f"window {msg.info.height} x {msg.info.width}, expected {window_side} x {window_side}",
-        )
-    if msg.info.resolution != CELL_SIZE_M:
-        raise _reject(
-            DropReason.OUT_OF_RANGE, f"resolution {msg.info.resolution}, expected {CELL_SIZE_M}"
-        )
+    _square_layout(msg, window_side, "window")
     origin = (msg.info.origin.position.x, msg.info.origin.position.y)
     if not all(math.isfinite(v) and -window_side <= v / CELL_SIZE_M <= GRID_SIZE for v in origin):
         raise _reject(DropReason.OUT_OF_RANGE, f"window origin {origin} off the map")
