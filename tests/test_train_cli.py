@@ -14,7 +14,8 @@ import torch
 
 from wildfire_bringup.cli import main as cli_main
 from wildfire_learning.architectures import build_q_network
-from wildfire_learning.checkpoint import CHECKPOINT_FILE, CURVE_CSV, CURVE_PNG, load_checkpoint
+from wildfire_learning.checkpoint import CHECKPOINT_FILE, load_checkpoint
+from wildfire_learning.plots import CURVE_CSV, CURVE_PNG
 
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))
 # Seconds-long runs: few envs, a small replay, short episodes, one evaluation episode.

@@ -1,10 +1,9 @@
-"""What a training run keeps in its directory: checkpoint, replay and learning curve.
+"""What a training run keeps to be resumed: checkpoint and replay.
 
 ``checkpoint.pt`` holds everything a resumed run needs besides the replay — the config, the
 counters (:class:`TrainState`), both networks, the optimiser and both random states — and
 ``replay.npz`` the replay. Each is written to a temporary file and renamed, so an interrupted
-save never leaves half a file. ``learning_curve.csv`` (and ``.png``) is rewritten at every
-evaluation.
+save never leaves half a file. (The learning curve beside them is ``plots.write_curve``'s.)
 
 Old checkpoints keep training the way they started: a config saved before a hyperparameter
 existed reads it as the value that reproduces the old behaviour (:data:`PRE_EXTENSION_VALUES`).
@@ -12,7 +11,6 @@ existed reads it as the value that reproduces the old behaviour (:data:`PRE_EXTE
 
 from __future__ import annotations
 
-import csv
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -22,6 +20,7 @@ import torch
 from torch import nn
 
 from wildfire_learning.errors import LearningError
+from wildfire_learning.experience import replay_shapes
 from wildfire_learning.replay import ReplayBuffer
 
 if TYPE_CHECKING:  # dqn imports this module
@@ -30,18 +29,6 @@ if TYPE_CHECKING:  # dqn imports this module
 CHECKPOINT_FILE = "checkpoint.pt"
 REPLAY_FILE = "replay.npz"
 CHECKPOINT_FORMAT = "wildfire-dqn-checkpoint/1"
-CURVE_CSV = "learning_curve.csv"
-CURVE_PNG = "learning_curve.png"
-CURVE_FIELDS = (
-    "iteration",
-    "samples",
-    "wall_time_s",
-    "epsilon",
-    "score_mean",
-    "score_sem",
-    "belief_iou_mean",
-    "episodes",
-)
 PRE_EXTENSION_VALUES: dict[str, Any] = {
     "n_step": 1,
     "reward_scale": 1.0,
@@ -70,7 +57,7 @@ class TrainState:
     """Samples taken during the training phase."""
     last_loss: float = float("nan")
     curve: list[dict[str, float]] = field(default_factory=list)
-    """Learning-curve rows (CURVE_FIELDS)."""
+    """Learning-curve rows (``plots.CURVE_FIELDS``)."""
     initialised_from: dict[str, Any] | None = None
     """The exported policy a fine-tuning run started from (kept across ``--resume``)."""
 
@@ -137,7 +124,8 @@ def resume(
     rng: np.random.Generator,
 ) -> tuple[TrainState, ReplayBuffer]:
     """Load the checkpoint of ``run_dir`` into the networks, optimiser and random states;
-    return its counters and replay. The network must be the one the checkpoint trained."""
+    return its counters and replay. The network (and so the replay's shapes) must be the one
+    the checkpoint trained."""
     payload = load_checkpoint(run_dir)
     # Fields a config predates read as their defaults (the values they were run with).
     saved = {f.name: f.default for f in fields(config)} | payload["config"]
@@ -157,7 +145,10 @@ def resume(
     state = TrainState(**payload["state"])
     rng.bit_generator.state = payload["numpy_rng"]
     torch.set_rng_state(payload["torch_rng"])
-    return state, ReplayBuffer.load(run_dir / REPLAY_FILE)
+    replay = ReplayBuffer.load(run_dir / REPLAY_FILE)
+    if (replay.image_shape, replay.state_shape) != replay_shapes(config):
+        raise LearningError(f"replay {run_dir / REPLAY_FILE}: shapes do not match the network")
+    return state, replay
 
 
 def load_policy_weights(model: nn.Module, path: Path, approach: str, arch: str) -> None:
@@ -178,28 +169,9 @@ def load_policy_weights(model: nn.Module, path: Path, approach: str, arch: str) 
     model.load_state_dict(policy.module.state_dict())
 
 
-def write_curve(
-    run_dir: Path, rows: list[dict[str, float]], baseline: float | None, title: str
-) -> None:
-    """Learning curve as CSV and PNG (score vs thousands of training iterations)."""
-    with open(run_dir / CURVE_CSV, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=CURVE_FIELDS)
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: row.get(k, "") for k in CURVE_FIELDS})
-    if rows:
-        # matplotlib loads only when a curve is drawn, not with every `wildfire` command.
-        from wildfire_learning.plots import plot_learning_curve
-
-        plot_learning_curve(rows, baseline, title, run_dir / CURVE_PNG)
-
-
 __all__ = [
     "CHECKPOINT_FILE",
     "CHECKPOINT_FORMAT",
-    "CURVE_CSV",
-    "CURVE_FIELDS",
-    "CURVE_PNG",
     "PRE_EXTENSION_VALUES",
     "REPLAY_FILE",
     "TrainState",
@@ -208,5 +180,4 @@ __all__ = [
     "resume",
     "save_checkpoint",
     "upgrade_saved_config",
-    "write_curve",
 ]

@@ -1,21 +1,15 @@
-"""Deep Q-learning of the pairwise Q-network, in the style of CleanRL's ``dqn.py``.
+"""Deep Q-learning of the pairwise Q-network (docs/model.md, Q-network), in the shape of
+CleanRL's ``dqn.py``: the hyperparameters (:class:`TrainConfig`; every field is a ``wildfire
+train`` option, its help in the field's metadata) and one explicit loop (:func:`train`).
 
-The model it learns is described in docs/model.md, Q-network.
-
-One explicit loop: batched environments (``num_envs`` episodes of two aircraft stepping
-together, actions of every aircraft from one batched forward pass), every aircraft's
-transition stored in one replay (the network is shared), the replay prefilled with random
-actions, then one training iteration (mini-batch 64, AdaMax, MSE Bellman error against a
-target network copied every 1000 iterations) per ``train_frequency`` new samples, epsilon
-linear from 1 to 0.1 over ``exploration_samples`` samples. Every ``eval_every`` iterations
-the greedy network is scored with the evaluation protocol (docs/model.md, Evaluation) on
-fixed held-out seeds (``eval_seed_base`` and up; training episodes use seeds below it), the
-learning curve is written (CSV + PNG) and a checkpoint (networks, optimizer, replay, RNG
-states, counters) is saved so ``--resume`` continues where the run stopped
-(``checkpoint.py``). At the end the network is exported as a TorchScript policy
-(``export.py``) with its JSON card (``model_card.py``). This module holds the
-hyperparameters and the loop; every field of :class:`TrainConfig` is a ``wildfire train``
-option, its help text in the field's metadata.
+``num_envs`` episodes step together, every aircraft's action from one batched forward pass,
+and every aircraft's transition goes to one replay (the network is shared), prefilled with
+random actions (``experience.py``). Then one training iteration (mini-batch 64, AdaMax, MSE
+Bellman error against a target network copied every 1000 iterations) per ``train_frequency``
+new samples, epsilon linear from 1 to 0.1 over ``exploration_samples`` samples. The greedy
+network is scored on held-out seeds and exported every ``eval_every`` iterations
+(``validation.py``), the run saved for ``--resume`` every ``checkpoint_every``
+(``checkpoint.py``).
 
 Decisions beyond the paper (documented here, reported in the card):
 
@@ -50,8 +44,6 @@ Decisions beyond the paper (documented here, reported in the card):
 from __future__ import annotations
 
 import json
-import resource
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
@@ -65,27 +57,28 @@ from torch import nn
 from wildfire_agent.approaches import APPROACHES
 from wildfire_agent.policies import greedy_actions
 from wildfire_learning.architectures import ARCHITECTURES, IMAGE_SHAPES, build_q_network
-from wildfire_learning.checkpoint import (
-    REPLAY_FILE,
-    TrainState,
-    load_policy_weights,
-    resume,
-    save_checkpoint,
-    write_curve,
-)
-from wildfire_learning.controllers import GreedyController
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
+from wildfire_learning.checkpoint import TrainState, load_policy_weights, resume, save_checkpoint
+from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
-from wildfire_learning.evaluate import VALIDATION_SEED_BASE, EvaluationSummary, evaluate
-from wildfire_learning.exploration import PersistentExploration
+from wildfire_learning.evaluate import VALIDATION_SEED_BASE
+from wildfire_learning.experience import TrainingEpisodes, bag_sequences, new_replay
 from wildfire_learning.export import export_policy
 from wildfire_learning.model_card import init_summary, policy_card
-from wildfire_learning.nstep import NStepAccumulator
-from wildfire_learning.replay import ImageCodec, ReplayBuffer
+from wildfire_learning.progress import Session, Status, max_rss_mb, report_status
+from wildfire_learning.replay import ReplayBuffer
+from wildfire_learning.validation import evaluate_and_export
 from wildfire_sim.episode import EPISODE_DEFAULTS
 
 EVAL_SEED_BASE = VALIDATION_SEED_BASE
 """Evaluation seeds during training start here; training seeds stay below."""
+
+
+def linear_schedule(start_e: float, end_e: float, duration: int, t: int) -> float:
+    """Epsilon at sample ``t``: linear from ``start_e`` to ``end_e`` over ``duration``."""
+    if duration <= 0:
+        return end_e
+    slope = (end_e - start_e) / duration
+    return max(slope * t + start_e, end_e)
 
 
 def hyperparameter(default: Any, help: str, **option: Any) -> Any:
@@ -235,6 +228,16 @@ class TrainConfig:
     def eval_seeds(self) -> list[int]:
         return list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + self.eval_episodes))
 
+    def epsilon_at(self, samples: int) -> float:
+        """Exploration probability after ``samples`` samples."""
+        return linear_schedule(self.start_e, self.end_e, self.exploration_samples, samples)
+
+    def target_iterations(self) -> int:
+        """Iterations the run will do."""
+        if self.iterations > 0:
+            return self.iterations
+        return max(0, (self.total_samples - self.learning_starts) // self.train_frequency)
+
 
 def config_from_dict(values: dict[str, Any]) -> TrainConfig:
     """A config from saved or given values (lists read as tuples, unknown keys ignored)."""
@@ -265,19 +268,6 @@ class RunOptions:
 
 
 @dataclass
-class Status:
-    """What the progress callback sees."""
-
-    samples: int
-    iterations: int
-    target_iterations: int
-    epsilon: float
-    loss: float
-    last_score: float | None
-    phase: str
-
-
-@dataclass
 class TrainResult:
     """What a run produced."""
 
@@ -293,47 +283,6 @@ class TrainResult:
     max_rss_mb: float
 
 
-# ------------------------------------------------------------------------------- helpers
-def linear_schedule(start_e: float, end_e: float, duration: int, t: int) -> float:
-    """Epsilon at sample ``t``: linear from ``start_e`` to ``end_e`` over ``duration``."""
-    if duration <= 0:
-        return end_e
-    slope = (end_e - start_e) / duration
-    return max(slope * t + start_e, end_e)
-
-
-def epsilon_at(config: TrainConfig, samples: int) -> float:
-    """Exploration probability after ``samples`` samples."""
-    return linear_schedule(config.start_e, config.end_e, config.exploration_samples, samples)
-
-
-def target_iterations(config: TrainConfig) -> int:
-    """Iterations the run will do."""
-    if config.iterations > 0:
-        return config.iterations
-    return max(0, (config.total_samples - config.learning_starts) // config.train_frequency)
-
-
-def model_device(model: nn.Module) -> torch.device:
-    """The device holding ``model``'s weights."""
-    return next(model.parameters()).device
-
-
-def max_rss_mb() -> float:
-    """Peak resident memory of this process (MB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
-def evaluate_greedy(model: nn.Module, config: TrainConfig) -> EvaluationSummary:
-    """Evaluation score of the greedy network on the held-out evaluation seeds."""
-    model.eval()
-    try:
-        controller = GreedyController(model, config.approach, config.channels_last)
-        return evaluate(controller, config.eval_env_config(), config.eval_seeds(), "greedy")
-    finally:
-        model.train()
-
-
 def td_update(
     q_network: nn.Module,
     target_network: nn.Module,
@@ -343,7 +292,7 @@ def td_update(
     rng: np.random.Generator,
 ) -> float:
     """One training iteration on a replay mini-batch; returns the loss."""
-    batch = replay.sample(config.batch_size, rng, model_device(q_network))
+    batch = replay.sample(config.batch_size, rng, next(q_network.parameters()).device)
     images, next_images = batch.images, batch.next_images
     if config.channels_last:
         images = images.contiguous(memory_format=torch.channels_last)
@@ -370,141 +319,15 @@ def td_update(
     return float(loss.item())
 
 
-@dataclass
-class Session:
-    """Wall-clock bookkeeping of one session of a run (a resumed run starts a new one)."""
-
-    wall_before_s: float
-    """Wall time of the run's earlier sessions."""
-    samples0: int
-    """Samples when the training phase started (after the prefill)."""
-    iterations0: int
-    """Iterations when the training phase started."""
-    start: float = field(default_factory=time.perf_counter)
-    train_start: float | None = None
-    prefill_samples: int = 0
-    prefill_rate: float = 0.0
-
-    def wall_time_s(self) -> float:
-        """Wall time of the run so far, earlier sessions included."""
-        return self.wall_before_s + time.perf_counter() - self.start
-
-    def start_training(self, state: TrainState) -> None:
-        """Mark the end of the prefill (once): training-phase rates count from here."""
-        if self.train_start is not None:
-            return
-        self.train_start = time.perf_counter()
-        self.samples0, self.iterations0 = state.samples, state.iterations
-        if self.prefill_samples:
-            self.prefill_rate = self.prefill_samples / (self.train_start - self.start)
-
-
-def evaluate_and_export(
-    q_network: nn.Module,
-    config: TrainConfig,
-    options: RunOptions,
-    state: TrainState,
-    session: Session,
-    bag_transitions: int,
-) -> None:
-    """Score the greedy network, add it to the learning curve and export it: the latest
-    evaluated network is always on disk (`wildfire eval` it mid-run), the best-scoring one
-    beside it."""
-    summary = evaluate_greedy(q_network, config).to_json()
-    state.wall_time_s = session.wall_time_s()
-    state.curve.append(
-        {
-            "iteration": state.iterations,
-            "samples": state.samples,
-            "wall_time_s": round(state.wall_time_s, 1),
-            "epsilon": epsilon_at(config, state.samples),
-            "score_mean": float(summary["score_mean"]),
-            "score_sem": float(summary["score_sem"]),
-            "belief_iou_mean": float(summary["belief_iou_mean"]),
-            "episodes": int(summary["episodes"]),
-        }
-    )
-    write_curve(options.run_dir, state.curve, options.baseline_score, f"{config.approach} DQN")
-    card = policy_card(config, state, options, bag_transitions)
-    export_policy(q_network, options.out, card)
-    if state.curve[-1]["score_mean"] >= max(r["score_mean"] for r in state.curve):
-        export_policy(q_network, options.out.with_name("best_" + options.out.name), card)
-
-
-@dataclass
-class Episodes:
-    """The training episodes of an online run and what the loop carries between decisions."""
-
-    env: WildfireVecEnv
-    observations: dict[str, np.ndarray]
-    frame_ids: np.ndarray
-    """(E, N) replay frame of every aircraft's current observation."""
-    pending: NStepAccumulator
-    exploration: PersistentExploration
-
-
-def report_status(
-    report: Callable[[Status], None] | None,
-    state: TrainState,
-    config: TrainConfig,
-    phase: str,
-    epsilon: float | None = None,
-) -> None:
-    """Tell the progress callback (``epsilon`` defaults to the schedule's)."""
-    if report is not None:
-        report(
-            Status(
-                state.samples,
-                state.iterations,
-                target_iterations(config),
-                epsilon_at(config, state.samples) if epsilon is None else epsilon,
-                state.last_loss,
-                state.last_score,
-                phase,
-            )
-        )
-
-
-def next_training_seeds(state: TrainState, count: int) -> np.ndarray:
-    """Seeds of the next ``count`` training episodes (below the evaluation seeds)."""
-    seeds = (state.episodes + np.arange(count)) % EVAL_SEED_BASE
-    state.episodes += count
-    return seeds
-
-
-def flat_aircraft(
-    observations: dict[str, np.ndarray], envs: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Images (P, C, H, W) and states (P, K, 5) of every aircraft of ``envs``, env-major."""
-    images, states = observations["image"][envs], observations["state"][envs]
-    return (images.reshape(-1, *images.shape[2:]), states.reshape(-1, *states.shape[2:]))
-
-
-def bag_replay_sequences(config: TrainConfig, options: RunOptions) -> list[Any]:
-    """Transitions rebuilt from ``options.bag_dirs`` (none without bags)."""
-    if not options.bag_dirs:
-        return []
-    from wildfire_learning.bag_transitions import transitions_from_bags
-
-    sequences = transitions_from_bags(options.bag_dirs, config.approach, config.env_config())
-    if sum(len(s.actions) for s in sequences) == 0:
-        raise LearningError("--from-bag: the bags hold no complete decision to learn from")
-    return sequences
-
-
-# ------------------------------------------------------------------------- training
 def train(
-    config: TrainConfig,
-    options: RunOptions,
-    report: Callable[[Status], None] | None = None,
+    config: TrainConfig, options: RunOptions, report: Callable[[Status], None] | None = None
 ) -> TrainResult:
     """Run (or resume) a training run; see the module docstring."""
     config.validate()
     run_dir = options.run_dir
     run_dir.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(config.torch_threads)
-    n = config.n_aircraft
-    everyone = np.arange(config.num_envs)
+    n, num_envs = config.n_aircraft, config.num_envs
 
     # --- seeding, networks, optimiser: a checkpoint then overwrites what it saved ----------
     torch.manual_seed(config.seed)
@@ -528,109 +351,57 @@ def train(
         target_network.load_state_dict(q_network.state_dict())
 
     # --- replay: the checkpoint's, or a new one holding the bag transitions first ----------
-    bag_sequences = bag_replay_sequences(config, options)
-    bag_transitions = sum(len(s.actions) for s in bag_sequences)
-    image_shape, state_shape = IMAGE_SHAPES[config.approach], (max(n - 1, 1), 5)
+    sequences = bag_sequences(config, options.bag_dirs)
+    bag_transitions = sum(len(s.actions) for s in sequences)
     if replay is None:
-        capacity = max(config.buffer_size, bag_transitions if options.offline else 0)
-        replay = ReplayBuffer(
-            capacity, image_shape, state_shape, ImageCodec.for_approach(config.approach)
+        # Offline the bags are all there is to learn from: the replay keeps all of them.
+        replay = new_replay(
+            config, max(config.buffer_size, bag_transitions if options.offline else 0), sequences
         )
-        for sequence in bag_sequences:
-            replay.add_sequence(
-                sequence.images,
-                sequence.states,
-                sequence.actions,
-                sequence.rewards,
-                sequence.terminated,
-                encoded=True,
-            )
-    if replay.image_shape != image_shape or replay.state_shape != state_shape:
-        raise LearningError(f"replay {run_dir / REPLAY_FILE}: shapes do not match the network")
 
-    total_iterations = target_iterations(config)
     session = Session(state.wall_time_s, state.samples, state.iterations)
-    episodes: Episodes | None = None  # offline: no environment, one iteration per pass
-    if options.offline:
+    episodes: TrainingEpisodes | None = None
+    if options.offline:  # no environment: the loop only learns, one iteration per pass
         session.start_training(state)
     else:
-        env = WildfireVecEnv(config.env_config(), config.num_envs)
-        observations = env.reset(next_training_seeds(state, config.num_envs))
-        frame_ids = replay.add_frames(*flat_aircraft(observations, everyone))
-        episodes = Episodes(
-            env,
-            observations,
-            frame_ids.reshape(config.num_envs, n),
-            NStepAccumulator(config.num_envs, n, config.n_step, config.gamma),
-            PersistentExploration(config.num_envs, n, config.explore_hold),
-        )
-
+        episodes = TrainingEpisodes(config, replay, state)
+    total_iterations = config.target_iterations()
+    # Offline runs, and runs given ``iterations``, stop on iterations; the others on samples.
+    by_iterations = options.offline or config.iterations > 0
     try:
-        while not (
-            state.iterations >= total_iterations
-            if options.offline or config.iterations > 0
-            else state.samples >= config.total_samples
+        while (
+            state.iterations < total_iterations
+            if by_iterations
+            else state.samples < config.total_samples
         ):
-            # --- act and store: every aircraft of every environment, one forward pass --------
             if episodes is None:
-                epsilon, phase = 0.0, "training (offline)"
-                owed = state.iterations + 1
+                epsilon, phase, owed = 0.0, "training (offline)", state.iterations + 1
             else:
-                epsilon = epsilon_at(config, state.samples)
+                # --- act: every aircraft of every environment, one forward pass -----------
+                epsilon = config.epsilon_at(state.samples)
                 prefilling = len(replay) < config.learning_starts
                 phase = "prefilling replay" if prefilling else "training"
-                greedy = np.zeros((config.num_envs, n), dtype=np.int64)
+                greedy = np.zeros((num_envs, n), dtype=np.int64)
                 if not prefilling:
-                    images, pair_states = flat_aircraft(episodes.observations, everyone)
+                    images, pair_states = episodes.aircraft()
                     greedy = greedy_actions(q_network, images, pair_states, config.channels_last)
-                    greedy = greedy.reshape(config.num_envs, n)
+                    greedy = greedy.reshape(num_envs, n)
                 actions = episodes.exploration.actions(greedy, 1.0 if prefilling else epsilon, rng)
-                env = episodes.env
-                active = np.flatnonzero(~env.done)
-                result = env.step(actions)
-                episodes.observations = result.observations
-                # Every aircraft's transition goes to the one replay (the network is shared).
-                next_ids = replay.add_frames(*flat_aircraft(result.observations, active))
-                next_ids = next_ids.reshape(-1, n)
-                ready = episodes.pending.push(
-                    active,
-                    episodes.frame_ids[active],
-                    actions[active],
-                    result.rewards[active],
-                    next_ids,
-                    result.terminated[active],
-                    env.done[active],
-                )
-                replay.add_transitions(
-                    ready.obs_ids,
-                    ready.actions,
-                    ready.rewards,
-                    ready.terminated,
-                    ready.next_ids,
-                    ready.steps,
-                )
-                episodes.frame_ids[active] = next_ids
-                state.samples += active.size * n
+                # --- step and store: every aircraft's transition goes to the one replay ---
+                taken = episodes.step(actions, replay, state)
+                state.samples += taken
                 if prefilling:
-                    session.prefill_samples += active.size * n
-                ended = np.flatnonzero(env.done)
-                if ended.size:
-                    episodes.observations = env.reset(
-                        next_training_seeds(state, int(ended.size)), ended
-                    )
-                    episodes.exploration.reset(ended)
-                    ended_ids = replay.add_frames(*flat_aircraft(episodes.observations, ended))
-                    episodes.frame_ids[ended] = ended_ids.reshape(-1, n)
+                    session.prefill_samples += taken
                 owed = state.iterations
                 if len(replay) >= config.learning_starts:
                     session.start_training(state)
-                    # Iterations owed for the samples since the prefill ended.
+                    # One iteration per train_frequency samples since the prefill ended.
                     since = state.samples - session.samples0
                     owed = session.iterations0 + since // config.train_frequency
             if config.iterations > 0:
                 owed = min(owed, config.iterations)
 
-            # --- learn ------------------------------------------------------------------
+            # --- learn: the iterations owed, target copies, evaluations, checkpoints -------
             while state.iterations < owed:
                 state.last_loss = td_update(
                     q_network, target_network, optimizer, replay, config, rng
@@ -648,19 +419,14 @@ def train(
                     save_checkpoint(
                         run_dir, config, state, q_network, target_network, optimizer, replay, rng
                     )
-            if episodes is not None or state.iterations % 10 == 0:
+            if episodes is not None or state.iterations % 10 == 0:  # offline: every 10th pass
                 report_status(report, state, config, phase, epsilon)
     except KeyboardInterrupt:
         # Ctrl-C or SIGTERM: keep what was learnt, `--resume` continues from here.
         state.wall_time_s = session.wall_time_s()
         save_checkpoint(run_dir, config, state, q_network, target_network, optimizer, replay, rng)
         raise
-
-    train_wall = time.perf_counter() - session.train_start if session.train_start else 0.0
-    session_samples = state.samples - session.samples0
-    session_iterations = state.iterations - session.iterations0
-    state.train_wall_s += train_wall
-    state.train_samples += session_samples
+    samples_per_s, iterations_per_s = session.close(state)
 
     # --- final evaluation, checkpoint, export -------------------------------------------------
     if not state.curve or state.curve[-1]["iteration"] != state.iterations:
@@ -678,8 +444,8 @@ def train(
         card=card,
         transitions_from_bags=bag_transitions,
         replay_bytes=replay.nbytes,
-        samples_per_s=session_samples / train_wall if train_wall > 0 else 0.0,
-        iterations_per_s=session_iterations / train_wall if train_wall > 0 else 0.0,
+        samples_per_s=samples_per_s,
+        iterations_per_s=iterations_per_s,
         prefill_samples_per_s=session.prefill_rate,
         max_rss_mb=max_rss_mb(),
     )
@@ -688,18 +454,11 @@ def train(
 __all__ = [
     "EVAL_SEED_BASE",
     "RunOptions",
-    "Status",
     "TrainConfig",
     "TrainResult",
     "config_from_dict",
-    "epsilon_at",
-    "evaluate_and_export",
-    "evaluate_greedy",
     "hyperparameter",
     "linear_schedule",
-    "model_device",
-    "report_status",
-    "target_iterations",
     "td_update",
     "train",
 ]

@@ -1,8 +1,9 @@
 """Figures in the style of the paper: fire propagation, flight paths over the fire, and the
-learning curve of a training run."""
+learning curve of a training run (with its CSV, rewritten at every evaluation)."""
 
 from __future__ import annotations
 
+import csv
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -18,6 +19,19 @@ from matplotlib.image import AxesImage
 
 from wildfire_sim.grid import MAP_SIZE_M
 
+CURVE_CSV = "learning_curve.csv"
+CURVE_PNG = "learning_curve.png"
+CURVE_FIELDS = (
+    "iteration",
+    "samples",
+    "wall_time_s",
+    "epsilon",
+    "score_mean",
+    "score_sem",
+    "belief_iou_mean",
+    "episodes",
+)
+"""Columns of the learning curve: one row per evaluation of a training run."""
 EXTENT = (0.0, MAP_SIZE_M, 0.0, MAP_SIZE_M)
 # 0 unburnt, 1 burnt out, 2 burning.
 FIRE_COLOURS = ListedColormap(["#f4f1e8", "#5b5b5b", "#e8491d"])
@@ -116,4 +130,26 @@ def plot_learning_curve(
     plt.close(fig)
 
 
-__all__ = ["fire_state_image", "plot_episode", "plot_fire_propagation", "plot_learning_curve"]
+def write_curve(
+    run_dir: Path, rows: list[dict[str, float]], baseline: float | None, title: str
+) -> None:
+    """Learning curve of a run as ``CURVE_CSV`` and ``CURVE_PNG`` in ``run_dir``."""
+    with open(run_dir / CURVE_CSV, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=CURVE_FIELDS)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: row.get(k, "") for k in CURVE_FIELDS})
+    if rows:
+        plot_learning_curve(rows, baseline, title, run_dir / CURVE_PNG)
+
+
+__all__ = [
+    "CURVE_CSV",
+    "CURVE_FIELDS",
+    "CURVE_PNG",
+    "fire_state_image",
+    "plot_episode",
+    "plot_fire_propagation",
+    "plot_learning_curve",
+    "write_curve",
+]

@@ -28,7 +28,8 @@ from wildfire_bringup.cli.common import (
 )
 from wildfire_learning.checkpoint import CHECKPOINT_FILE, load_checkpoint, upgrade_saved_config
 from wildfire_learning.device import resolve_device
-from wildfire_learning.dqn import RunOptions, Status, TrainConfig, config_from_dict, train
+from wildfire_learning.dqn import RunOptions, TrainConfig, config_from_dict, train
+from wildfire_learning.progress import Status
 from wildfire_msgs_py.node_support import interrupt_on_stop_signals
 
 
