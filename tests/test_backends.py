@@ -157,3 +157,24 @@ def test_independent_peers_see_a_running_system(dds_env: dict[str, str]) -> None
     # 10 Hz: consecutive odometry stamps 0.1 s apart (the agent's 100 ms decision slots).
     assert sorted(steps)[len(steps) // 2] == pytest.approx(0.1, abs=0.02)
     assert min(counts.values()) >= 3, counts
+
+
+@pytest.mark.dds
+@pytest.mark.parametrize("choice", ["", "single", "bogus"])
+def test_executor_choice(choice: str, dds_env: dict[str, str]) -> None:
+    """rclpy nodes spin on the events executor unless WILDFIRE_ROS_EXECUTOR says otherwise."""
+    probe = (
+        "from wildfire_msgs_py import runtime; runtime.rclpy.init(args=[]); "
+        "print(type(runtime.make_executor()).__name__)"
+    )
+    env = dict(dds_env, WILDFIRE_ROS_EXECUTOR=choice)
+    result = subprocess.run(
+        [sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=60
+    )
+    if choice == "bogus":
+        assert result.returncode != 0
+        assert "WILDFIRE_ROS_EXECUTOR='bogus': expected one of events, single" in result.stderr
+        return
+    assert result.returncode == 0, result.stderr
+    events = BACKEND == "rclpy" and choice != "single"
+    assert result.stdout.strip() == ("EventsExecutor" if events else "SingleThreadedExecutor")

@@ -133,6 +133,24 @@ def test_echo_of_silent_topic_times_out_cleanly(dds_env: dict[str, str]) -> None
     assert "no message on /silent within 0.5 s" in result.stderr
 
 
+@pytest.mark.dds
+@pytest.mark.parametrize("verb", ["echo", "hz"])
+def test_sigterm_while_waiting_for_a_topic_ends_cleanly(verb: str, dds_env: dict[str, str]) -> None:
+    """A tool stopped by SIGTERM (a service manager, ``timeout``) says so in one line."""
+    waiting = subprocess.Popen(
+        [*WILDFIRE, "topic", verb, "/not_yet_there"],
+        env=dds_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(4.0)  # past start-up: polling the graph for the topic
+    waiting.terminate()
+    _, stderr = waiting.communicate(timeout=30)
+    assert "Traceback" not in stderr
+    assert stderr.strip().splitlines() == ["wildfire topic: interrupted"]
+
+
 def test_bad_ros_domain_is_reported(dds_env: dict[str, str]) -> None:
     env = dict(dds_env, ROS_DOMAIN_ID="900", WILDFIRE_ROS_BACKEND="dds")
     result = wildfire(["topic", "list"], env)

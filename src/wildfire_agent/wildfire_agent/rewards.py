@@ -19,8 +19,8 @@ Per aircraft and decision, with the weights of :class:`ObservationRewardWeights`
 Both are evaluated at the centre of the cell the aircraft is over. ``d_fire`` is read from a
 Euclidean distance transform computed once per fire step. ``n_clear`` is counted directly
 from the burning grid (81 cells per aircraft); the receding-horizon planner, which scores
-thousands of hypothetical positions, instead reads it from a disc-count map (one
-convolution per fire step): both give the same integer. Off the map, ``d_fire`` is measured
+thousands of hypothetical positions, instead reads it from a disc-count map (computed once
+per fire map): both give the same integer. Off the map, ``d_fire`` is measured
 to the nearest map cell with the distance outside added (still capped).
 """
 
@@ -32,8 +32,6 @@ from typing import NamedTuple
 
 import numpy as np
 import scipy.ndimage
-import torch
-import torch.nn.functional as F
 
 from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
 
@@ -90,17 +88,27 @@ def distance_to_fire(burning: np.ndarray, max_distance_m: float) -> np.ndarray:
 def clear_count_map(burning: np.ndarray, radius_m: float) -> np.ndarray:
     """Non-burning cells within ``radius_m`` of each cell centre, padded by the radius.
 
-    Cells off the map count as non-burning.
+    Cells off the map count as non-burning. The disc is summed row by row from prefix sums
+    along each row (one slice difference per kernel row): exact integer counts in ~0.2 ms
+    for a 100 x 100 grid, where a 2-D convolution cost 1-16 ms depending on how many other
+    processes compete for torch's threads.
     """
     kernel = disc_kernel(radius_m)
     pad = kernel.shape[0] // 2
     width = ((0, 0), (2 * pad, 2 * pad), (2 * pad, 2 * pad))
     clear = np.pad(~burning, width, constant_values=True)
-    # Counts are small integers: exact in float32 whatever the convolution's order.
-    counts = F.conv2d(
-        torch.from_numpy(clear.astype(np.float32))[:, None], torch.from_numpy(kernel)[None, None]
-    )
-    return counts[:, 0].numpy()
+    envs, rows, cols = clear.shape
+    prefix = np.zeros((envs, rows, cols + 1), dtype=np.int32)
+    np.cumsum(clear, axis=2, out=prefix[:, :, 1:])
+    out_rows, out_cols = rows - 2 * pad, cols - 2 * pad
+    counts = np.zeros((envs, out_rows, out_cols), dtype=np.int32)
+    for dy, row in enumerate(kernel):
+        # The disc's chord on this kernel row: columns pad - half .. pad + half.
+        half = int(row.sum()) // 2
+        rows_at = prefix[:, dy : dy + out_rows]
+        counts += rows_at[:, :, pad + half + 1 : pad + half + 1 + out_cols]
+        counts -= rows_at[:, :, pad - half : pad - half + out_cols]
+    return counts.astype(np.float32)
 
 
 def fire_field_maps(

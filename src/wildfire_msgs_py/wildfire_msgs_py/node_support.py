@@ -201,8 +201,9 @@ def run_node(
         INIT_ERRORS,
         PARAMETER_ERRORS,
         ExternalShutdownException,
-        SingleThreadedExecutor,
+        make_executor,
         rclpy,
+        spin,
     )
 
     global _init_args
@@ -224,12 +225,9 @@ def run_node(
     executor = None
     try:
         node = build()
-        # rclpy.experimental.EventsExecutor would wake less often, but with rclpy 7.1.6 the
-        # lockstep start handshake never completes under it (the fire simulator never hears
-        # the agents' latched ready messages): every node spins on the standard executor.
-        executor = SingleThreadedExecutor()
+        executor = make_executor()
         executor.add_node(node)
-        executor.spin()
+        spin(executor)
     except errors as error:
         print(f"{program}: error: {_first_line(error)}", file=sys.stderr)
         status = EXIT_USER_ERROR

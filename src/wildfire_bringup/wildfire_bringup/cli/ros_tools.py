@@ -17,9 +17,15 @@ if TYPE_CHECKING:
 
 @contextlib.contextmanager
 def ros_node(name: str) -> Iterator[Any]:
-    """Initialize the runtime, yield one node, and always shut down."""
+    """Initialize the runtime, yield one node, and always shut down.
+
+    SIGTERM ends the command as Ctrl-C does (one line, no traceback): left to rclpy, it
+    invalidates the context under the command's next graph query.
+    """
+    from wildfire_msgs_py.node_support import interrupt_on_stop_signals
     from wildfire_msgs_py.runtime import Node, rclpy
 
+    interrupt_on_stop_signals()
     rclpy.init(args=[])
     node = None
     try:
