@@ -120,14 +120,20 @@ class Team:
 
 def reference(n: int, ticks: int) -> list[AircraftState]:
     """States s_1..s_ticks flown by ``dynamics.step`` with the pilots' own random streams."""
+    return reference_flight(n, ticks)[0]
+
+
+def reference_flight(n: int, ticks: int) -> tuple[list[AircraftState], list[np.ndarray]]:
+    """States s_1..s_ticks and the (n,) actions a_0..a_{ticks-1} that flew them."""
     pilots = [Pilot("random", k, n, SEED) for k in range(n)]
     state = start_state(n)
-    states = []
+    states, actions = [], []
     for _ in range(ticks):
-        actions = np.array([p.decide(state, BURNING) for p in pilots], dtype=np.int64)
-        state = dynamics.step(state, actions)
+        action = np.array([p.decide(state, BURNING) for p in pilots], dtype=np.int64)
+        state = dynamics.step(state, action)
         states.append(state)
-    return states
+        actions.append(action)
+    return states, actions
 
 
 def run_in_order(team: Team, ticks: int) -> None:
@@ -143,8 +149,12 @@ def test_in_order_lockstep_equals_dynamics() -> None:
     n, ticks = 3, 30  # crosses the fire step of tick 25
     team = Team(n)
     run_in_order(team, ticks)
-    expected = reference(n, ticks)[-1]
+    flown, actions = reference_flight(n, ticks)
+    expected = flown[-1]
     for k, agent in enumerate(team.agents):
+        # Every decision publishes its integer action (the start pose has none).
+        published = [out.action for out in team.sent[k] if isinstance(out, StateOut)]
+        assert published == [None] + [int(a[k]) for a in actions]
         assert agent.state.x_m[0] == expected.x_m[k]
         assert agent.state.y_m[0] == expected.y_m[k]
         assert agent.state.heading_rad[0] == expected.heading_rad[k]

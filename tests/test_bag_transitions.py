@@ -13,6 +13,7 @@ import pytest
 
 from wildfire_learning.bag_transitions import (
     actions_from_banks,
+    checked_actions,
     read_recording,
     rebuild_transitions,
     transitions_from_bags,
@@ -50,6 +51,7 @@ def record_rollout(
     *,
     start_pose: bool = True,
     bank_cmds: bool = True,
+    actions: bool = False,
 ) -> Rollout:
     """Fly random actions and write what the nodes publish in lockstep mode."""
     env = WildfireVecEnv(config, 1)
@@ -57,7 +59,7 @@ def record_rollout(
     codec = ImageCodec.for_approach(config.observation)
     rng = np.random.default_rng(seed)
     n = config.n_aircraft
-    images, states, actions, rewards = (
+    images, states, flown, rewards = (
         [codec.encode(observations["image"][0])],
         [observations["state"][0]],
         [],
@@ -70,6 +72,8 @@ def record_rollout(
             writer.add_topic(contract.STATE.resolve(k), contract.STATE.type)
             if bank_cmds:
                 writer.add_topic(contract.BANK_CMD.resolve(k), contract.BANK_CMD.type)
+            if actions:
+                writer.add_topic(contract.ACTION.resolve(k), contract.ACTION.type)
         writer.write(
             contract.FIRE_MAP.name, 1, serialize(codecs.fire_grid_to_msg(env.fire.burning[0], 0))
         )
@@ -99,6 +103,12 @@ def record_rollout(
                         time_ns + 1,
                         serialize(codecs.bank_cmd_to_msg(_state(env, k)[3])),
                     )
+                if actions:
+                    writer.write(
+                        contract.ACTION.resolve(k),
+                        time_ns + 1,
+                        serialize(codecs.action_to_msg(action[0, k])),
+                    )
                 writer.write(
                     contract.STATE.resolve(k),
                     time_ns + 2,
@@ -106,14 +116,14 @@ def record_rollout(
                 )
             images.append(codec.encode(result.observations["image"][0]))
             states.append(result.observations["state"][0])
-            actions.append(action[0])
+            flown.append(action[0])
             rewards.append(result.rewards[0])
             if env.done[0]:
                 break
     return Rollout(
         np.stack(images),
         np.stack(states),
-        np.array(actions),
+        np.array(flown),
         np.array(rewards),
         bool(env.terminated[0]),
     )
@@ -160,6 +170,33 @@ def test_actions_without_bank_commands(tmp_path: Path) -> None:
     rollout = record_rollout(tmp_path / "bag", config, seed=8, decisions=40, bank_cmds=False)
     sequences = transitions_from_bags([tmp_path / "bag"], "obs", config)
     np.testing.assert_array_equal(sequences[1].actions, rollout.actions[:, 1])
+
+
+@pytest.mark.parametrize("start_pose", [True, False])
+def test_recorded_actions_are_taken_as_recorded(tmp_path: Path, start_pose: bool) -> None:
+    config = EnvConfig(shapes=("circular",))
+    rollout = record_rollout(
+        tmp_path / "bag", config, seed=9, decisions=60, start_pose=start_pose, actions=True
+    )
+    recording = read_recording(tmp_path / "bag", need_belief=False)
+    first = 0 if start_pose else 1
+    assert recording.actions is not None and recording.first_decision == first
+    np.testing.assert_array_equal(recording.actions, rollout.actions[first:])
+    sequences = rebuild_transitions(recording, "obs", config)
+    for k, sequence in enumerate(sequences):
+        np.testing.assert_array_equal(sequence.actions, rollout.actions[first:, k])
+        np.testing.assert_array_equal(sequence.rewards, rollout.rewards[first:, k])
+
+
+def test_recorded_actions_must_match_the_banks() -> None:
+    banks = np.array([[0, 10], [1, 10], [0, 9]])  # (T + 1, N) bank steps
+    np.testing.assert_array_equal(
+        checked_actions(np.array([[1, 1], [0, 0]]), banks), [[1, 1], [0, 0]]
+    )
+    with pytest.raises(LearningError, match="disagrees with the recorded banks"):
+        checked_actions(np.array([[0, 1], [0, 0]]), banks)
+    with pytest.raises(LearningError, match=r"outside 0\.\.1"):
+        checked_actions(np.array([[2, 1], [0, 0]]), banks)
 
 
 def test_actions_from_banks_at_the_limit() -> None:

@@ -113,6 +113,7 @@ def test_state_is_bit_exact() -> None:
 def test_scalar_clock_time_deadline_codecs() -> None:
     assert codecs.score_from_msg(_wire(codecs.score_to_msg(12.75))) == 12.75
     assert codecs.bank_cmd_from_msg(codecs.bank_cmd_to_msg(-0.5)) == -0.5
+    assert [codecs.action_from_msg(codecs.action_to_msg(a)) for a in (0, 1)] == [0, 1]
     ns = 987_654_321_123
     assert codecs.clock_from_msg(_wire(codecs.clock_to_msg(ns))) == ns
     assert codecs.time_from_msg(codecs.time_to_msg(ns)) == ns
@@ -145,7 +146,7 @@ def test_contract_names_and_lookup() -> None:
     assert contract.spec_for("/wildfire/fire_map") is contract.FIRE_MAP
     assert contract.spec_for("/uav7/unknown") is None
     names = [name for name, _ in contract.topics_for(2)]
-    assert "/diagnostics" in names and "/clock" in names and len(names) == 7 + 2 * 4
+    assert "/diagnostics" in names and "/clock" in names and len(names) == 7 + 2 * 5
     assert contract.FIRE_MAP.qos.transient_local and contract.FIRE_MAP.qos.depth == 1
     with pytest.raises(ValueError, match=">= 0"):
         contract.aircraft_namespace(-1)

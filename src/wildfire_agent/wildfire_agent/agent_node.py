@@ -2,7 +2,7 @@
 
 Subscribes to the truth (``/wildfire/fire_map``), the episode status, every other aircraft's
 ``state_stamped``, and the shared belief with its exact ages; publishes ``odom``,
-``bank_cmd``, ``state``, ``state_stamped`` and ``visit`` in its namespace, and its
+``bank_cmd``, ``action``, ``state``, ``state_stamped`` and ``visit`` in its namespace, and its
 decision-deadline statistics on ``/diagnostics``. The decision itself is
 :class:`wildfire_agent.pilot.Pilot`.
 
@@ -25,11 +25,8 @@ import sys
 import time
 from typing import Any
 
-import numpy as np
-
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
-from wildfire_agent.pilot import Pilot
 from wildfire_agent.policy_names import BUILTIN_POLICIES, EXPECTED_POLICIES
 from wildfire_agent.protocol import (
     MAX_BANK_RAD,
@@ -41,15 +38,7 @@ from wildfire_agent.protocol import (
     Output,
     StateOut,
 )
-from wildfire_agent.receding_horizon import RecedingHorizonConfig
-from wildfire_msgs_py import contract
-from wildfire_msgs_py.codecs import (
-    bank_cmd_to_msg,
-    diagnostics_to_msg,
-    pose_to_odometry,
-    state_to_msg,
-    visit_to_msg,
-)
+from wildfire_msgs_py import codecs, contract, system_codecs
 from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.node_support import (
     ParamSpec,
@@ -59,12 +48,6 @@ from wildfire_msgs_py.node_support import (
     run_node,
 )
 from wildfire_msgs_py.runtime import Node
-from wildfire_msgs_py.system_codecs import (
-    READY_SUFFIX,
-    ack_to_msg,
-    snapshot_to_msg,
-    stamped_state_to_msg,
-)
 from wildfire_msgs_py.wire_checks import (
     checked_age_image,
     checked_episode,
@@ -99,33 +82,14 @@ class AgentNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("agent", **kwargs)
         p = declare_parameters(self, PARAMETERS)
-        self.k: int = p["aircraft"]
-        n: int = p["n_aircraft"]
-        self.seed: int = p["seed"]
-        self.name_tag = f"uav{self.k}"
-        if self.k >= n:
-            raise AgentConfigError(f"aircraft {self.k}: expected 0..{n - 1} (n_aircraft)")
         if p["policy"] not in BUILTIN_POLICIES:  # a Q-network (obs, belief or a .pt file)
             import torch
 
             torch.set_num_threads(p["torch_threads"])
-        pilot = Pilot(
-            p["policy"],
-            self.k,
-            n,
-            p["seed"],
-            RecedingHorizonConfig(p["rh_horizon"], p["rh_replan_every"], p["rh_restarts"]),
+        self.protocol = protocol = AgentProtocol.from_parameters(
+            p, lambda: self.get_clock().now().nanoseconds
         )
-        start = AircraftState(
-            x_m=np.array([p["start_x"]]),
-            y_m=np.array([p["start_y"]]),
-            heading_rad=np.array([p["start_heading"]]),
-            bank_steps=np.array([p["start_bank_steps"]], dtype=np.int64),
-        )
-        mode = Mode(p["mode"])
-        self.protocol = AgentProtocol(
-            self.k, n, mode, pilot, start, self.name_tag, lambda: self.get_clock().now().nanoseconds
-        )
+        self.k, self.seed, self.name_tag = protocol.k, p["seed"], protocol.name_tag
         self.ready_sent = False
         self.input_guard = guard = InputGuard(self.get_logger().warning)
 
@@ -134,6 +98,7 @@ class AgentNode(Node):
 
         self.odom_pub = publisher(contract.ODOM)
         self.bank_pub = publisher(contract.BANK_CMD)
+        self.action_pub = publisher(contract.ACTION)
         self.state_pub = publisher(contract.STATE)
         self.stamped_pub = publisher(contract.STATE_STAMPED)
         self.visit_pub = publisher(contract.VISIT)
@@ -141,7 +106,6 @@ class AgentNode(Node):
         self.ack_pub = publisher(contract.ACK)
         self.snapshot_pub = publisher(contract.BELIEF_SNAPSHOT)
 
-        protocol = self.protocol
         # Deep reader histories on the inputs lockstep waits for: a flood on a keyless topic
         # must not push the honest sample out of the queue before the executor takes it.
         deep = contract.QosSpec(depth=100, transient_local=True)
@@ -175,9 +139,9 @@ class AgentNode(Node):
             )
         self.publish(protocol.start())
         self.startup_timer = self.create_timer(0.1, self.startup_timer_callback)
-        if mode is Mode.REALTIME:
+        if protocol.mode is Mode.REALTIME:
             self.create_timer(PERIOD_S, lambda: self.publish(protocol.on_timer(time.monotonic())))
-        self.get_logger().info(f"{self.name_tag}: policy {p['policy']} ({mode.value})")
+        self.get_logger().info(f"{self.name_tag}: policy {p['policy']} ({protocol.mode.value})")
 
     @property
     def state(self) -> AircraftState:
@@ -194,33 +158,36 @@ class AgentNode(Node):
     def belief_request_callback(self, msg: Any) -> None:
         snapshot = self.protocol.on_belief_request(time.monotonic())
         if snapshot is not None:
-            self.snapshot_pub.publish(snapshot_to_msg(snapshot))
+            self.snapshot_pub.publish(system_codecs.snapshot_to_msg(snapshot))
 
     def startup_timer_callback(self) -> None:
         """Say ready once the aggregator listens to our visits (their QoS is volatile)."""
         if self.ready_sent or self.count_subscribers(contract.VISIT.resolve(self.k)) < 1:
             return
         self.ready_sent = True
-        self.ack_pub.publish(ack_to_msg(self.name_tag + READY_SUFFIX, 0))
+        self.ack_pub.publish(
+            system_codecs.ack_to_msg(self.name_tag + system_codecs.READY_SUFFIX, 0)
+        )
         self.destroy_timer(self.startup_timer)
 
     def publish(self, outputs: list[Output] | None) -> None:
         """Encode and publish the protocol's outputs, in their order."""
         for out in outputs or ():
             if isinstance(out, StateOut):
-                if out.bank_rad is not None:
-                    self.bank_pub.publish(bank_cmd_to_msg(out.bank_rad))
-                self.stamped_pub.publish(stamped_state_to_msg(out.vector, out.stamp))
-                self.state_pub.publish(state_to_msg(out.vector))
-                self.odom_pub.publish(pose_to_odometry(out.vector, self.k, out.stamp))
+                if out.bank_rad is not None and out.action is not None:
+                    self.bank_pub.publish(codecs.bank_cmd_to_msg(out.bank_rad))
+                    self.action_pub.publish(codecs.action_to_msg(out.action))
+                self.stamped_pub.publish(system_codecs.stamped_state_to_msg(out.vector, out.stamp))
+                self.state_pub.publish(codecs.state_to_msg(out.vector))
+                self.odom_pub.publish(codecs.pose_to_odometry(out.vector, self.k, out.stamp))
             elif isinstance(out, AckOut):
-                self.ack_pub.publish(ack_to_msg(self.name_tag, out.stamp))
+                self.ack_pub.publish(system_codecs.ack_to_msg(self.name_tag, out.stamp))
             elif isinstance(out, DeadlineOut):
                 inputs = self.input_guard.status(f"{self.name_tag}/agent", self.name_tag)
-                message = diagnostics_to_msg([out.status, inputs], out.stamp)
+                message = codecs.diagnostics_to_msg([out.status, inputs], out.stamp)
                 self.diagnostics_pub.publish(message)
             else:
-                self.visit_pub.publish(visit_to_msg(out.window, out.stamp))
+                self.visit_pub.publish(codecs.visit_to_msg(out.window, out.stamp))
 
 
 def main(args: list[str] | None = None) -> None:

@@ -13,6 +13,8 @@ the environment dimension: poses are (E, N).
 
 from __future__ import annotations
 
+from enum import StrEnum
+
 import numpy as np
 
 from wildfire_agent import sensor
@@ -20,8 +22,19 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.rewards import ObservationRewardWeights, proximity_sum
 from wildfire_belief.ego_image import ego_images
 
-APPROACHES = ("obs", "belief")
-"""The observation kinds a Q-network takes (and the reward it is trained with)."""
+
+class Approach(StrEnum):
+    """The observation kind a Q-network takes (and the reward it is trained with).
+
+    A ``StrEnum``: its members are the strings of configs, cards and the command line.
+    """
+
+    OBS = "obs"
+    BELIEF = "belief"
+
+
+APPROACHES: tuple[str, ...] = tuple(Approach)
+"""The approaches' names, in the order commands list them."""
 
 
 def sensor_images(truth: np.ndarray, pose: AircraftState) -> np.ndarray:
@@ -46,4 +59,4 @@ def belief_rewards(
     return np.asarray(team_reward)[:, None] - proximity_weight * proximity
 
 
-__all__ = ["APPROACHES", "belief_images", "belief_rewards", "sensor_images"]
+__all__ = ["APPROACHES", "Approach", "belief_images", "belief_rewards", "sensor_images"]

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from wildfire_agent import pairwise
-from wildfire_agent.approaches import belief_images, sensor_images
+from wildfire_agent.approaches import Approach, belief_images, sensor_images
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
@@ -56,7 +56,7 @@ class Pilot:
     @property
     def needs_belief(self) -> bool:
         """True for a belief-based Q-network (it needs the shared belief and exact ages)."""
-        return self.observation == "belief"
+        return self.observation == Approach.BELIEF
 
     def fire_maps(self, burning: np.ndarray, key: object) -> FireFieldMaps:
         """Reward look-up maps of the (H, W) truth, computed once per fire map ``key``."""
@@ -91,7 +91,7 @@ class Pilot:
             return int(self.policy.act(own, peers, np.zeros(1, dtype=np.int64), maps)[0])
         network: TorchScriptPolicy = self.policy
         states = pairwise.normalise(pairwise.pairwise_states(team_2d))[0, k : k + 1]
-        if self.observation == "obs":
+        if self.observation == Approach.OBS:
             image = sensor_images(burning[None], team_2d)[0, k : k + 1]
         else:
             if belief is None or age_s is None:

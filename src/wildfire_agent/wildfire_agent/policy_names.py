@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from wildfire_agent.approaches import APPROACHES
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
 from wildfire_agent.receding_horizon import (
@@ -38,8 +39,8 @@ PLANNER_POLICIES = ("rh", "rh-paper")
 """Receding-horizon baselines."""
 BUILTIN_POLICIES = (*PLANNER_POLICIES, "random")
 """Policies with no file (and so no model card)."""
-SHIPPED_POLICIES = ("obs", "belief")
-"""Names of the shipped Q-network files."""
+SHIPPED_POLICIES = APPROACHES
+"""Names of the shipped Q-network files (one per approach)."""
 EXPECTED_POLICIES = "rh, rh-paper, random, obs, belief or a TorchScript .pt file"
 """How an error message names what a policy may be."""
 MODELS_DIR = Path(__file__).resolve().parents[3] / "models"

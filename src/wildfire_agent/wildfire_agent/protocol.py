@@ -22,17 +22,19 @@ slot; a decision that ends after its slot counts as a missed deadline.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
-from typing import NamedTuple
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from wildfire_agent import dynamics
 from wildfire_agent.dynamics import AircraftState
+from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.pilot import Pilot
+from wildfire_agent.receding_horizon import RecedingHorizonConfig
 from wildfire_belief.visits import visit_windows, window_values
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
-from wildfire_msgs_py.contract import DEADLINE_STATUS
+from wildfire_msgs_py.contract import AIRCRAFT_PREFIX, DEADLINE_STATUS
 from wildfire_msgs_py.input_guard import (
     DropReason,
     RejectedMessage,
@@ -64,13 +66,16 @@ MAX_BANK_RAD = float(dynamics.MAX_BANK_STEPS * dynamics.BANK_STEP_RAD)
 
 
 class StateOut(NamedTuple):
-    """Own pose to publish (``state_stamped``, ``state``, ``odom``; ``bank_cmd`` after a turn)."""
+    """Own pose to publish (``state_stamped``, ``state``, ``odom``; after a decision also
+    ``bank_cmd`` and ``action``)."""
 
     stamp: int
     vector: np.ndarray
     """x, y, heading, bank in radians (float64, 4)."""
     bank_rad: float | None
     """The commanded bank after a decision; None for the start pose."""
+    action: int | None = None
+    """The decision's integer action; None for the start pose."""
 
 
 class VisitOut(NamedTuple):
@@ -249,6 +254,22 @@ class AgentProtocol:
     def status_ceiling_ns(self) -> int:
         return (max(self.status_tick, 0) + AHEAD_TICKS) * DECISION_PERIOD_NS
 
+    @classmethod
+    def from_parameters(cls, p: Mapping[str, Any], now_ns: Callable[[], int]) -> AgentProtocol:
+        """The protocol of the agent node's parameters (``agent_node.PARAMETERS``)."""
+        k, n = p["aircraft"], p["n_aircraft"]
+        if k >= n:
+            raise AgentConfigError(f"aircraft {k}: expected 0..{n - 1} (n_aircraft)")
+        planner = RecedingHorizonConfig(p["rh_horizon"], p["rh_replan_every"], p["rh_restarts"])
+        start = AircraftState(
+            x_m=np.array([p["start_x"]]),
+            y_m=np.array([p["start_y"]]),
+            heading_rad=np.array([p["start_heading"]]),
+            bank_steps=np.array([p["start_bank_steps"]], dtype=np.int64),
+        )
+        pilot = Pilot(p["policy"], k, n, p["seed"], planner)
+        return cls(k, n, Mode(p["mode"]), pilot, start, f"{AIRCRAFT_PREFIX}{k}", now_ns)
+
     # --- inputs -------------------------------------------------------------------------------
 
     def start(self) -> list[Output]:
@@ -410,7 +431,8 @@ class AgentProtocol:
 
     def fly(self, action: int, tick: int) -> StateOut:
         self.state = dynamics.step(self.state, np.array([action], dtype=np.int64))
-        return StateOut(self.stamp(tick), state_vector(self.state), float(self.state.bank_rad[0]))
+        bank_rad = float(self.state.bank_rad[0])
+        return StateOut(self.stamp(tick), state_vector(self.state), bank_rad, int(action))
 
     def deadline(self, tick: int, force: bool = False) -> list[Output]:
         """Deadline statistics once a second of flight (every 10 decisions), and at the end."""

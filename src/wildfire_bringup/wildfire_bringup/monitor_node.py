@@ -7,9 +7,8 @@ deadline statistics and the episode status. In lockstep it is a reporter too
 (``wildfire_run``): it acknowledges tick ``k`` once it holds every aircraft's ``s_{k+1}``, so
 the recorder spinning in the same process never falls behind the system.
 
-Like every node it checks what it receives (:mod:`wildfire_msgs_py.wire_checks`): whatever
-another participant publishes, the summary is built from the system's own messages, and the
-dropped ones are counted (``input_guard``).
+Like every node it checks what it receives (:mod:`wildfire_msgs_py.wire_checks`), so the
+summary is built from the system's own messages; the dropped ones are counted.
 """
 
 from __future__ import annotations
@@ -20,7 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS
+from wildfire_agent.protocol import MAX_BANK_RAD
+from wildfire_bringup.trajectory import stacked_trajectory
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.codecs import diagnostics_from_msg, fuel_grid_from_msg
 from wildfire_msgs_py.input_guard import (
@@ -41,11 +41,10 @@ from wildfire_msgs_py.wire_checks import (
     checked_score,
     checked_stamped_state,
 )
+from wildfire_sim.episode import DECISION_PERIOD_NS as TICK_NS
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
 
 REPORTER = "wildfire_run"
-TICK_NS = 100_000_000
-MAX_BANK_RAD = float(MAX_BANK_STEPS * BANK_STEP_RAD)
 MAX_STATUS_STEP = 2 * DECISIONS_PER_FIRE_STEP
 
 
@@ -72,9 +71,9 @@ class RunMonitorNode(Node):
         self.deadlines: dict[int, dict[str, float]] = {}
         self.input_drops: dict[str, dict[str, float]] = {}
         self.acked_tick = -1
+        # Monotonic receipt times of each node's accepted messages (its status, belief or
+        # state): when a node cut off by a partition was heard again.
         self.heard: dict[str, list[float]] = {}
-        """Monotonic receipt times of each node's accepted messages (its status, belief or
-        state): when a node cut off by a partition was heard again."""
         self.input_guard = InputGuard(self.get_logger().warning)
         self.ack_pub = contract_publisher(self, contract.ACK)
 
@@ -194,19 +193,8 @@ class RunMonitorNode(Node):
         return self.status is not None and self.status.values.get("complete") == "true"
 
     def trajectory(self) -> np.ndarray:
-        """(T, N, 4) states in time order.
-
-        Lockstep: the states of every tick all aircraft reported. Real time (stamps differ
-        between aircraft): each aircraft's states in order, cut to the shortest history.
-        """
-        if self.lockstep:
-            common = sorted(set.intersection(*(set(s.items) for s in self.states)))
-            return np.array([[self.states[k].items[t] for k in range(self.n)] for t in common])
-        length = min(len(s) for s in self.states)
-        if length == 0:
-            return np.zeros((0, self.n, 4))
-        per_aircraft = [[s.items[t] for t in sorted(s.items)][:length] for s in self.states]
-        return np.stack([np.array(rows) for rows in per_aircraft], axis=1)
+        """(T, N, 4) states in time order (:func:`stacked_trajectory`)."""
+        return stacked_trajectory(self.states, self.lockstep)
 
 
 __all__ = ["REPORTER", "RunMonitorNode"]

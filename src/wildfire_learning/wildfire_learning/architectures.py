@@ -20,6 +20,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from wildfire_agent.approaches import Approach
 from wildfire_learning.errors import LearningError
 from wildfire_learning.network import QNetwork
 
@@ -53,7 +54,7 @@ def build_q_network(approach: str, arch: str = "paper") -> nn.Module:
         raise LearningError(f"arch: expected one of {ARCHITECTURES}, got {arch!r}")
     shape = IMAGE_SHAPES[approach]
     if arch in POOLING:
-        if approach != "belief":
+        if approach != Approach.BELIEF:
             raise LearningError(f"arch {arch}: only for the belief approach (obs is already fast)")
         return DownsampledQNetwork(shape, POOLING[arch])
     return QNetwork(shape)

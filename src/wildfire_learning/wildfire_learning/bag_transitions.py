@@ -13,9 +13,12 @@ Topics used (one episode per bag):
   (stamp - stamp of the first fire map) / 0.1 s, the start pose at tick 0); the unstamped
   ``state`` stream is taken in order (start pose, if recorded, then one per decision; without
   the start pose the first transition is lost). Every aircraft must have every tick.
-* ``/uavK/bank_cmd`` (optional): the bank commanded at each decision; the action is the sign
-  of its change from the previous bank (at the +-50 degree limit an unchanged bank means the
-  action towards the limit, which the dynamics ignore). Without it, banks of the states are used.
+* ``/uavK/action`` (recorded since the agents publish it): the integer action of each
+  decision, taken as recorded (and checked against the banks it turned).
+* ``/uavK/bank_cmd`` (bags from before ``action``): the bank commanded at each decision; the
+  action is the sign of its change from the previous bank (at the +-50 degree limit an
+  unchanged bank means the action towards the limit, which the dynamics ignore). Without it,
+  banks of the states are used.
 * ``/wildfire/fire_map`` (required): the pre-burnt fire, then one map per fire step. Decision
   ``t`` (1-based) sees fire map ``t // 25``, as in the environment. Maps are placed by their
   header stamps when these increase (step = round(stamp delta / 2.5 s), a re-published map
@@ -38,8 +41,14 @@ from typing import NamedTuple
 import numpy as np
 
 from wildfire_agent import pairwise
-from wildfire_agent.approaches import belief_images, belief_rewards, sensor_images
-from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS, AircraftState
+from wildfire_agent.approaches import Approach, belief_images, belief_rewards, sensor_images
+from wildfire_agent.dynamics import (
+    BANK_STEP_RAD,
+    MAX_BANK_STEPS,
+    NUM_ACTIONS,
+    AircraftState,
+    apply_action,
+)
 from wildfire_agent.rewards import FireFieldMaps, fire_field_maps, observation_rewards
 from wildfire_belief.belief import SharedBelief
 from wildfire_belief.visits import visit_windows, visited_cells
@@ -70,6 +79,9 @@ class Recording(NamedTuple):
     """(T0, N) commanded banks of decisions first_decision + 1 .., or None."""
     initial_belief: np.ndarray | None
     """(100, 100) bool initial belief (first /wildfire/belief), or None."""
+    actions: np.ndarray | None = None
+    """(T0, N) int64 recorded actions of decisions first_decision + 1 .., or None (a bag
+    without ``/uavK/action``)."""
 
 
 class RebuiltSequence(NamedTuple):
@@ -166,7 +178,10 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
     )
     cmd_topics = {contract.BANK_CMD.resolve(k): k for k in aircraft}
     use_cmds = all(t in topics for t in cmd_topics)
+    action_topics = {contract.ACTION.resolve(k): k for k in aircraft}
+    use_actions = all(t in topics for t in action_topics)
     wanted = [contract.FIRE_MAP.name, *state_topics] + (list(cmd_topics) if use_cmds else [])
+    wanted += list(action_topics) if use_actions else []
     if need_belief:
         wanted.append(contract.BELIEF.name)
 
@@ -174,6 +189,7 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
     states: list[list[np.ndarray]] = [[] for _ in aircraft]
     stamps: list[list[int]] = [[] for _ in aircraft]
     cmds: list[list[float]] = [[] for _ in aircraft]
+    actions: list[list[int]] = [[] for _ in aircraft]
     belief: np.ndarray | None = None
     try:
         for record in read_messages(bag, wanted):
@@ -187,6 +203,8 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
                     states[k].append(codecs.state_from_msg(record.message))
             elif record.topic in cmd_topics:
                 cmds[cmd_topics[record.topic]].append(codecs.bank_cmd_from_msg(record.message))
+            elif record.topic in action_topics:
+                actions[action_topics[record.topic]].append(codecs.action_from_msg(record.message))
             elif record.topic == contract.FIRE_MAP.name:
                 grid = codecs.fire_grid_from_msg(record.message)
                 if grid.shape != (GRID_SIZE, GRID_SIZE):
@@ -205,38 +223,49 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
     if use_stamped:
         state_array, first = _place_stamped_states(stamps, states, fire[0][0], bag)
         decisions = len(state_array) - 1
-        cmd_array = None
-        if use_cmds and min(len(c) for c in cmds) >= first + decisions:
-            # Command i is that of decision i + 1.
-            cmd_array = np.array([c[first : first + decisions] for c in cmds]).T
+        # Command (and action) i is that of decision i + 1.
+        cmd_array = _per_decision(cmds, first, decisions, np.float64) if use_cmds else None
+        action_array = _per_decision(actions, first, decisions, np.int64) if use_actions else None
         if decisions < 1:
             raise LearningError(f"bag {bag}: fewer than two poses per aircraft")
-        return Recording(_place_fire_maps(fire, bag), state_array, first, cmd_array, belief)
+        return Recording(
+            _place_fire_maps(fire, bag), state_array, first, cmd_array, belief, action_array
+        )
 
     # Align the aircraft: the same number of poses (a Ctrl-C may cut one stream short).
     poses = min(len(s) for s in states)
-    if use_cmds:
-        counts = [len(c) for c in cmds]
+    commands = cmds if use_cmds else actions if use_actions else None
+    if commands is not None:
+        counts = [len(c) for c in commands]
         with_start = all(len(s) >= c + 1 for s, c in zip(states, counts, strict=True))
         first = 0 if with_start else 1
-        if not with_start:
-            # The node publishes states only after decisions: the first command has no pose
-            # before it, so drop it.
-            cmds = [c[1:] for c in cmds]
-        decisions = min(poses - 1, *(len(c) for c in cmds))
+        # The node publishes states only after decisions: without the start pose, the first
+        # command has no pose before it, so it is dropped.
+        cmds, actions = [c[first:] for c in cmds], [a[first:] for a in actions]
+        decisions = min(poses - 1, *(len(c) - first for c in commands))
     else:
         first, decisions = 0, poses - 1
     if decisions < 1:
         raise LearningError(f"bag {bag}: fewer than two poses per aircraft, nothing to rebuild")
     state_array = np.stack([np.stack(s[: decisions + 1]) for s in states], axis=1)
-    cmd_array = np.array([c[:decisions] for c in cmds], dtype=np.float64).T if use_cmds else None
     return Recording(
         fire_maps=_place_fire_maps(fire, bag),
         states=state_array,
         first_decision=first,
-        bank_cmds=cmd_array,
+        bank_cmds=_per_decision(cmds, 0, decisions, np.float64) if use_cmds else None,
         initial_belief=belief,
+        actions=_per_decision(actions, 0, decisions, np.int64) if use_actions else None,
     )
+
+
+def _per_decision(
+    streams: list[list[float]] | list[list[int]], first: int, decisions: int, dtype: type
+) -> np.ndarray | None:
+    """(decisions, N) values ``first .. first + decisions - 1`` of each aircraft's stream, or
+    None when a stream is too short to cover them (a cut recording)."""
+    if min(len(s) for s in streams) < first + decisions:
+        return None
+    return np.array([s[first : first + decisions] for s in streams], dtype=dtype).T
 
 
 def actions_from_banks(previous_bank_rad: np.ndarray, commanded_bank_rad: np.ndarray) -> np.ndarray:
@@ -251,6 +280,18 @@ def actions_from_banks(previous_bank_rad: np.ndarray, commanded_bank_rad: np.nda
             "(or stay at the 50 degree limit); is the bag from a lockstep run?"
         )
     return np.where(held, (before > 0).astype(np.int64), (delta > 0).astype(np.int64))
+
+
+def checked_actions(actions: np.ndarray, bank_steps: np.ndarray) -> np.ndarray:
+    """Recorded ``actions`` (T, N), refused unless each turned ``bank_steps[t]`` into
+    ``bank_steps[t + 1]`` (T + 1, N) as the dynamics do."""
+    if np.any((actions < 0) | (actions >= NUM_ACTIONS)):
+        raise LearningError(f"bag: /uavK/action values outside 0..{NUM_ACTIONS - 1}")
+    if not np.array_equal(apply_action(bank_steps[:-1], actions), bank_steps[1:]):
+        raise LearningError(
+            "bag: /uavK/action disagrees with the recorded banks; is the bag from a lockstep run?"
+        )
+    return actions
 
 
 def rebuild_transitions(
@@ -268,13 +309,15 @@ def rebuild_transitions(
         raise LearningError("bag: the fire maps do not cover any decision")
     n = states.shape[1]
     bank_steps = np.rint(states[..., 3] / BANK_STEP_RAD).astype(np.int64)
-    if recording.bank_cmds is not None:
+    if recording.actions is not None:
+        actions = checked_actions(recording.actions[:decisions], bank_steps)
+    elif recording.bank_cmds is not None:
         actions = actions_from_banks(states[:-1, :, 3], recording.bank_cmds[:decisions])
     else:
         actions = actions_from_banks(states[:-1, :, 3], states[1:, :, 3])
 
     belief = SharedBelief(1)
-    if approach == "belief":
+    if approach == Approach.BELIEF:
         if recording.initial_belief is None:
             raise LearningError("bag: the belief approach needs /wildfire/belief")
         belief.reset([0], recording.initial_belief)
@@ -295,14 +338,14 @@ def rebuild_transitions(
             bank_steps=bank_steps[i][None],
         )
         team = 0
-        if approach == "belief" and t >= 1:
+        if approach == Approach.BELIEF and t >= 1:
             # Decision t moved the aircraft, then visited (the environment's order).
             belief.tick()
             env_idx, cell = visited_cells(visit_windows(pose.x_m, pose.y_m))
             truth = burning[cell // GRID_SIZE, cell % GRID_SIZE]
             team = int(belief.visit(env_idx, cell, truth)[0])
         weights = config.obs_weights
-        if i >= 1 and approach == "obs":
+        if i >= 1 and approach == Approach.OBS:
             if maps is None or maps_index != step:
                 maps, maps_index = fire_field_maps(burning[None], weights), step
             rewards[i - 1] = observation_rewards(maps, pose.x_m, pose.y_m, pose.bank_rad, weights)[
@@ -313,7 +356,7 @@ def rebuild_transitions(
             rewards[i - 1] = belief_rewards(
                 team_reward, pose, weights, config.belief_proximity_weight
             )[0]
-        if approach == "obs":
+        if approach == Approach.OBS:
             image = sensor_images(burning[None], pose)[0]
         else:
             image = belief_images(belief.burning, belief.age_s(), pose)[0]
@@ -347,7 +390,7 @@ def transitions_from_bags(
     """Rebuilt sequences of every aircraft of every bag."""
     sequences: list[RebuiltSequence] = []
     for bag in bag_dirs:
-        recording = read_recording(bag, need_belief=approach == "belief")
+        recording = read_recording(bag, need_belief=approach == Approach.BELIEF)
         if recording.states.shape[1] != config.n_aircraft:
             raise LearningError(
                 f"bag {bag}: {recording.states.shape[1]} aircraft, the network is trained "
@@ -361,6 +404,7 @@ __all__ = [
     "RebuiltSequence",
     "Recording",
     "actions_from_banks",
+    "checked_actions",
     "read_recording",
     "rebuild_transitions",
     "transitions_from_bags",

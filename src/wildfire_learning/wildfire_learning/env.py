@@ -42,7 +42,13 @@ from typing import NamedTuple
 import numpy as np
 
 from wildfire_agent import dynamics, pairwise
-from wildfire_agent.approaches import belief_images, belief_rewards, sensor_images
+from wildfire_agent.approaches import (
+    APPROACHES,
+    Approach,
+    belief_images,
+    belief_rewards,
+    sensor_images,
+)
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.rewards import (
     FireFieldMaps,
@@ -65,8 +71,8 @@ from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.seeding import Stream, generator
 from wildfire_sim.shapes import Shape, seed_centre_m, shape_masks
 
-OBSERVATION_KINDS = ("obs", "belief", "none")
-REWARD_KINDS = ("obs", "belief")
+OBSERVATION_KINDS = (*APPROACHES, "none")
+REWARD_KINDS = APPROACHES
 
 
 @dataclass(frozen=True)
@@ -254,7 +260,7 @@ class WildfireVecEnv:
         self.scores += team_reward
 
         weights, a = self.config.obs_weights, self.aircraft
-        if self.config.reward == "obs":
+        if self.config.reward == Approach.OBS:
             rewards = observation_rewards(self.maps, a.x_m, a.y_m, a.bank_rad, weights)
         else:
             rewards = belief_rewards(team_reward, a, weights, self.config.belief_proximity_weight)
@@ -305,7 +311,7 @@ class WildfireVecEnv:
         kind = self.config.observation
         if kind == "none":
             return {"state": self.pair_states()}
-        if kind == "obs":
+        if kind == Approach.OBS:
             images = sensor_images(self.truth, self.aircraft)
         else:
             images = belief_images(self.belief.burning, self.belief.age_s(), self.aircraft)

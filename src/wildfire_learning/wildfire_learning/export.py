@@ -16,6 +16,7 @@ from typing import Any
 import torch
 from torch import nn
 
+from wildfire_agent.approaches import APPROACHES
 from wildfire_agent.policies import save_policy_card
 from wildfire_learning.errors import LearningError
 
@@ -27,7 +28,7 @@ def sidecar_path(policy_path: str | Path) -> Path:
 
 def export_policy(model: nn.Module, path: str | Path, card: dict[str, Any]) -> Path:
     """Script ``model`` (a CPU copy in eval mode) and write it with ``card``; return the path."""
-    if card.get("approach") not in ("obs", "belief"):
+    if card.get("approach") not in APPROACHES:
         raise LearningError(
             f"policy card: approach must be obs or belief, got {card.get('approach')!r}"
         )

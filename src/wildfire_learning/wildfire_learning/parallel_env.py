@@ -14,6 +14,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
+from wildfire_agent.approaches import APPROACHES, Approach
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 
 
@@ -28,12 +29,12 @@ class WildfireParallelEnv(ParallelEnv):  # type: ignore[misc]  # pettingzoo is u
 
     def __init__(self, config: EnvConfig | None = None) -> None:
         self.config = (config or EnvConfig()).validate()
-        if self.config.observation not in ("obs", "belief"):
+        if self.config.observation not in APPROACHES:
             raise ValueError("WildfireParallelEnv needs observation 'obs' or 'belief'")
         self.possible_agents = [f"uav{k}" for k in range(self.config.n_aircraft)]
         self.agents: list[str] = []
         self._env = WildfireVecEnv(self.config, 1)
-        image_shape = (1, 30, 40) if self.config.observation == "obs" else (2, 100, 100)
+        image_shape = (1, 30, 40) if self.config.observation == Approach.OBS else (2, 100, 100)
         pairs = max(self.config.n_aircraft - 1, 1)
         self._observation_space = spaces.Dict(
             {

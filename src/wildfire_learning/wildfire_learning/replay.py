@@ -32,6 +32,7 @@ from typing import NamedTuple
 import numpy as np
 import torch
 
+from wildfire_agent.approaches import Approach
 from wildfire_learning.errors import LearningError
 
 OBS_SCALES = (1.0,)
@@ -48,7 +49,7 @@ class ImageCodec:
 
     @classmethod
     def for_approach(cls, approach: str) -> ImageCodec:
-        return cls(OBS_SCALES if approach == "obs" else BELIEF_SCALES)
+        return cls(OBS_SCALES if approach == Approach.OBS else BELIEF_SCALES)
 
     def encode(self, images: np.ndarray) -> np.ndarray:
         """(..., C, H, W) float -> uint8."""

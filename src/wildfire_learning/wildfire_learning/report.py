@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from wildfire_agent.approaches import APPROACHES
 from wildfire_learning.errors import LearningError
 from wildfire_sim.shapes import Shape
 
@@ -256,7 +257,7 @@ def results_markdown(
             + " | ".join(
                 our_ratio(approach, baseline)
                 for baseline in (PAPER_BASELINE, BASELINE)
-                for approach in ("obs", "belief")
+                for approach in APPROACHES
             )
             + " |"
         )

@@ -347,6 +347,18 @@ bank_cmd_to_msg = float64_to_msg
 bank_cmd_from_msg = float64_from_msg
 
 
+def action_to_msg(action: int, *, message_class: Any = None) -> Any:
+    """A decision's integer action -> ``std_msgs/msg/Int8``."""
+    msg = _message("std_msgs/msg/Int8", message_class)
+    msg.data = int(action)
+    return msg
+
+
+def action_from_msg(msg: Any) -> int:
+    """``std_msgs/msg/Int8`` -> the integer action (its range is the reader's to check)."""
+    return int(msg.data)
+
+
 class NodeStatus(NamedTuple):
     """One status of ``/diagnostics`` (``diagnostic_msgs/msg/DiagnosticStatus``)."""
 
@@ -419,6 +431,8 @@ __all__ = [
     "AircraftPose",
     "NodeStatus",
     "VisitWindow",
+    "action_from_msg",
+    "action_to_msg",
     "bank_cmd_from_msg",
     "bank_cmd_to_msg",
     "belief_age_from_msg",

@@ -16,6 +16,7 @@ topic                      type                                QoS (reliability,
 ``/wildfire/score``        ``std_msgs/msg/Float64``            reliable, transient-local, 1
 ``/uavK/odom``             ``nav_msgs/msg/Odometry``           reliable, volatile, 10
 ``/uavK/bank_cmd``         ``std_msgs/msg/Float64``            reliable, volatile, 10
+``/uavK/action``           ``std_msgs/msg/Int8``               reliable, transient-local, 10
 ``/uavK/visit``            ``nav_msgs/msg/OccupancyGrid``      reliable, volatile, 10
 ``/uavK/state``            ``std_msgs/msg/Float64MultiArray``  reliable, volatile, 10
 ``/diagnostics``           ``diagnostic_msgs/msg/DiagnosticArray``  reliable, volatile, 100
@@ -199,6 +200,17 @@ ACK_QOS = QosSpec(depth=1, reliable=True, transient_local=True)
 #: Latched with a history, so a late joiner gets the recent per-tick messages it may need.
 LATCHED_HISTORY = QosSpec(depth=10, reliable=True, transient_local=True)
 
+ACTION = TopicSpec(
+    "action",
+    "std_msgs/msg/Int8",
+    # Latched with a history, as state_stamped: a recorder that matches the agent a few
+    # decisions late still gets the first actions (an unstamped stream is paired by count).
+    LATCHED_HISTORY,
+    True,
+    "integer action of each decision, beside its bank_cmd: 0 = bank -5 degrees, 1 = +5 degrees "
+    "(a positive bank turns left); held at the 50 degree limit",
+)
+
 EPISODE = TopicSpec(
     "/wildfire/episode",
     "diagnostic_msgs/msg/DiagnosticStatus",
@@ -254,6 +266,7 @@ TOPICS: tuple[TopicSpec, ...] = (
     SCORE,
     ODOM,
     BANK_CMD,
+    ACTION,
     VISIT,
     STATE,
     DIAGNOSTICS,
