@@ -53,7 +53,7 @@ import pytest  # noqa: E402
 @pytest.fixture
 def ros_runtime():
     """The active runtime backend, initialized for one test and always shut down after it."""
-    from wildfire_msgs_py import runtime
+    from wildfire_ros import runtime
 
     runtime.rclpy.init(args=[])
     try:

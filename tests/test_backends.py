@@ -22,7 +22,7 @@ import pytest
 from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
-from wildfire_msgs_py.runtime import BACKEND
+from wildfire_ros.runtime import BACKEND
 
 pytestmark = [pytest.mark.dds, pytest.mark.timeout(300)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")
@@ -97,7 +97,7 @@ _CYCLONE_PEER = textwrap.dedent(
     from cyclonedds.domain import DomainParticipant
     from cyclonedds.sub import DataReader
     from cyclonedds.topic import Topic
-    from wildfire_msgs_py.dds.types import get_message
+    from wildfire_msgs_py.types import get_message
 
     participant = DomainParticipant(int(os.environ["ROS_DOMAIN_ID"]))
     readers = {
@@ -164,7 +164,7 @@ def test_independent_peers_see_a_running_system(dds_env: dict[str, str]) -> None
 def test_executor_choice(choice: str, dds_env: dict[str, str]) -> None:
     """rclpy nodes spin on the events executor unless WILDFIRE_ROS_EXECUTOR says otherwise."""
     probe = (
-        "from wildfire_msgs_py import runtime; runtime.rclpy.init(args=[]); "
+        "from wildfire_ros import runtime; runtime.rclpy.init(args=[]); "
         "print(type(runtime.make_executor()).__name__)"
     )
     env = dict(dds_env, WILDFIRE_ROS_EXECUTOR=choice)

@@ -14,12 +14,12 @@ import pytest
 from rosbags.highlevel import AnyReader
 
 from wildfire_msgs_py import codecs
-from wildfire_msgs_py.bag import BagRecorder, BagWriter, bag_info, read_messages
-from wildfire_msgs_py.dds.types import typestore
 from wildfire_msgs_py.errors import BagError
-from wildfire_msgs_py.runtime import deserialize_message as deserialize
-from wildfire_msgs_py.runtime import get_message
-from wildfire_msgs_py.runtime import serialize_message as serialize
+from wildfire_msgs_py.types import typestore
+from wildfire_ros.bag import BagRecorder, BagWriter, bag_info, read_messages
+from wildfire_ros.runtime import deserialize_message as deserialize
+from wildfire_ros.runtime import get_message
+from wildfire_ros.runtime import serialize_message as serialize
 
 
 def complete_chunk_messages(mcap: Path) -> list[Any]:
@@ -157,8 +157,9 @@ def test_recorder_records_all_topics_including_late_ones(ros_runtime: Any, tmp_p
 
 def codecs_qos() -> Any:
     from wildfire_msgs_py.contract import FIRE_MAP
+    from wildfire_ros.runtime import qos_profile
 
-    return FIRE_MAP.qos.profile()
+    return qos_profile(FIRE_MAP.qos)
 
 
 WILDFIRE = [
@@ -169,7 +170,7 @@ WILDFIRE = [
 PUBLISHER = """
 import sys, time
 from wildfire_msgs_py import codecs
-from wildfire_msgs_py.runtime import Node, get_message, rclpy
+from wildfire_ros.runtime import Node, get_message, rclpy
 rclpy.init(args=[])
 node = Node("scorer")
 pub = node.create_publisher(get_message("std_msgs/msg/Float64"), "/wildfire/score", 10)
@@ -296,7 +297,7 @@ def test_metadata_is_jazzy_with_type_hashes_and_offered_qos(tmp_path: Path) -> N
 @pytest.mark.dds
 @pytest.mark.timeout(60)
 def test_type_hash_is_the_one_rclpy_reports(ros_runtime: Any) -> None:
-    from wildfire_msgs_py.bag import type_hash
+    from wildfire_ros.bag import type_hash
 
     if ros_runtime.BACKEND != "rclpy":
         pytest.skip("the DDS backend does not compute type hashes")
@@ -346,5 +347,6 @@ def test_sim_time_recorder_logs_clock_time(ros_runtime: Any, tmp_path: Path) -> 
 
 def codecs_clock_qos() -> Any:
     from wildfire_msgs_py.contract import CLOCK
+    from wildfire_ros.runtime import qos_profile
 
-    return CLOCK.qos.profile()
+    return qos_profile(CLOCK.qos)

@@ -16,11 +16,11 @@ import pytest
 
 from test_bag_roundtrip import complete_chunk_messages
 from wildfire_msgs_py import codecs, contract
-from wildfire_msgs_py.bag import BagWriter, bag_info, read_messages
-from wildfire_msgs_py.bag_repair import reindex
-from wildfire_msgs_py.dds.types import typestore
 from wildfire_msgs_py.errors import BagError
-from wildfire_msgs_py.runtime import serialize_message as serialize
+from wildfire_msgs_py.types import typestore
+from wildfire_ros.bag import BagWriter, bag_info, read_messages
+from wildfire_ros.bag_repair import reindex
+from wildfire_ros.runtime import serialize_message as serialize
 
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))
 
@@ -133,7 +133,7 @@ def test_bad_bags_are_named_in_one_line(tmp_path: Path) -> None:
 PUBLISHER = """
 import time
 from wildfire_msgs_py import codecs
-from wildfire_msgs_py.runtime import Node, get_message, rclpy
+from wildfire_ros.runtime import Node, get_message, rclpy
 rclpy.init(args=[])
 node = Node("scorer")
 pub = node.create_publisher(get_message("std_msgs/msg/Float64"), "/wildfire/score", 100)
@@ -268,8 +268,8 @@ def test_play_is_heard_message_by_message_by_a_recorder(
 
 
 def test_playback_qos_follows_the_recorded_offers() -> None:
-    from wildfire_msgs_py.bag import QosSummary
-    from wildfire_msgs_py.bag_play import VOLATILE_MIN_DEPTH, playback_qos
+    from wildfire_ros.bag import QosSummary
+    from wildfire_ros.bag_play import VOLATILE_MIN_DEPTH, playback_qos
 
     latched = QosSummary(reliable=True, transient_local=True, depth=1)
     assert playback_qos([latched], "/wildfire/fire_map") == latched  # stays latched, depth 1

@@ -22,8 +22,8 @@ from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
 from wildfire_msgs_py import codecs, contract
-from wildfire_msgs_py.bag import BagWriter
-from wildfire_msgs_py.runtime import serialize_message as serialize
+from wildfire_ros.bag import BagWriter
+from wildfire_ros.runtime import serialize_message as serialize
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
 
 DECISION_NS = 100_000_000
@@ -341,8 +341,8 @@ def test_belief_lockstep_recording_is_compact_and_rebuilds_every_transition(
     from mcap.reader import make_reader
     from rosbags.highlevel import AnyReader
 
-    from wildfire_msgs_py.bag import BULKY_TOPICS, bag_info
-    from wildfire_msgs_py.dds.types import typestore
+    from wildfire_msgs_py.types import typestore
+    from wildfire_ros.bag import BULKY_TOPICS, bag_info
 
     bag = tmp_path / "belief"
     done = subprocess.run(

@@ -1,6 +1,6 @@
 """Nodes on the active backend: executors, QoS, sim time, and pub/sub across OS processes.
 
-These tests use only the :mod:`wildfire_msgs_py.runtime` surface, so where rclpy is
+These tests use only the :mod:`wildfire_ros.runtime` surface, so where rclpy is
 installed they run on rclpy unchanged (``WILDFIRE_ROS_BACKEND=auto``).
 """
 
@@ -58,7 +58,7 @@ def test_transient_local_late_joiner_gets_last_grid(ros_runtime: Any) -> None:
     grid_type = rt.get_message(contract.FIRE_MAP.type)
     sim = rt.Node("fire_sim")
     publisher = sim.create_publisher(
-        grid_type, contract.FIRE_MAP.name, contract.FIRE_MAP.qos.profile()
+        grid_type, contract.FIRE_MAP.name, rt.qos_profile(contract.FIRE_MAP.qos)
     )
     grids = [np.random.default_rng(i).random((100, 100)) < 0.2 for i in range(3)]
     for i, grid in enumerate(grids):
@@ -66,7 +66,7 @@ def test_transient_local_late_joiner_gets_last_grid(ros_runtime: Any) -> None:
     late = rt.Node("late_viewer")
     received: list[Any] = []
     late.create_subscription(
-        grid_type, contract.FIRE_MAP.name, received.append, contract.FIRE_MAP.qos.profile()
+        grid_type, contract.FIRE_MAP.name, received.append, rt.qos_profile(contract.FIRE_MAP.qos)
     )
     volatile: list[Any] = []
     late.create_subscription(grid_type, contract.FIRE_MAP.name, volatile.append, 10)
@@ -84,7 +84,7 @@ def test_timers_follow_sim_time_from_clock(ros_runtime: Any) -> None:
     rt = ros_runtime
     clock_type = rt.get_message(contract.CLOCK.type)
     sim = rt.Node("clock_source")
-    clock_pub = sim.create_publisher(clock_type, "/clock", contract.CLOCK.qos.profile())
+    clock_pub = sim.create_publisher(clock_type, "/clock", rt.qos_profile(contract.CLOCK.qos))
     agent = rt.Node("agent", parameter_overrides=[rt.Parameter("use_sim_time", value=True)])
     assert agent.get_parameter("use_sim_time").value is True
     ticks: list[int] = []
@@ -117,7 +117,7 @@ CHILD_PUBLISHER = textwrap.dedent(
     import sys, time
     import numpy as np
     from wildfire_msgs_py import codecs
-    from wildfire_msgs_py.runtime import Node, QoSProfile, get_message, rclpy
+    from wildfire_ros.runtime import Node, QoSProfile, get_message, rclpy
 
     rclpy.init(args=sys.argv)
     node = Node("child_publisher")
@@ -171,7 +171,7 @@ def test_pub_sub_across_processes(ros_runtime: Any, dds_env: dict[str, str]) -> 
 def test_rclpy_backend_is_used_when_installed(dds_env: dict[str, str]) -> None:
     pytest.importorskip("rclpy", reason="rclpy (ROS 2 Jazzy) is not installed on this machine")
     code = (
-        "from wildfire_msgs_py.runtime import BACKEND, get_message; "
+        "from wildfire_ros.runtime import BACKEND, get_message; "
         "print(BACKEND, get_message('std_msgs/msg/String').__module__)"
     )
     out = subprocess.run(
@@ -190,7 +190,7 @@ def test_dds_backend_falls_back_to_loopback_config(dds_env: dict[str, str]) -> N
     env.pop("CYCLONEDDS_URI")
     env["WILDFIRE_ROS_BACKEND"] = "dds"
     code = (
-        "import os; from wildfire_msgs_py.runtime import rclpy, BACKEND; rclpy.init(args=[]); "
+        "import os; from wildfire_ros.runtime import rclpy, BACKEND; rclpy.init(args=[]); "
         "print(BACKEND, os.environ['CYCLONEDDS_URI']); rclpy.shutdown()"
     )
     out = subprocess.run(
@@ -209,7 +209,7 @@ def test_dds_backend_falls_back_to_loopback_config(dds_env: dict[str, str]) -> N
 def test_bad_backend_choice_is_reported(dds_env: dict[str, str]) -> None:
     env = dict(dds_env, WILDFIRE_ROS_BACKEND="zenoh")
     result = subprocess.run(
-        [sys.executable, "-c", "import wildfire_msgs_py.runtime"],
+        [sys.executable, "-c", "import wildfire_ros.runtime"],
         env=env,
         capture_output=True,
         text=True,

@@ -6,12 +6,12 @@ from pathlib import Path
 
 import pytest
 
-from wildfire_msgs_py.dds.arguments import (
+from wildfire_msgs_py.errors import ParameterError
+from wildfire_ros.dds.arguments import (
     node_pattern_matches,
     parse_ros_arguments,
     remove_ros_args,
 )
-from wildfire_msgs_py.errors import ParameterError
 
 
 def test_p_values_are_yaml_typed() -> None:
@@ -114,9 +114,9 @@ def test_bad_params_files(tmp_path: Path, text: str, message: str) -> None:
 
 @pytest.mark.dds
 def test_node_parameters_from_ros_args(tmp_path: Path) -> None:
-    from wildfire_msgs_py.dds import init, try_shutdown
-    from wildfire_msgs_py.dds.node import Node
-    from wildfire_msgs_py.runtime import FloatingPointRange, ParameterDescriptor
+    from wildfire_ros.dds import init, try_shutdown
+    from wildfire_ros.dds.node import Node
+    from wildfire_ros.runtime import FloatingPointRange, ParameterDescriptor
 
     params = tmp_path / "p.yaml"
     params.write_text("/**:\n  ros__parameters:\n    speed: 18.5\n    label: from_file\n")
@@ -154,7 +154,7 @@ def test_node_parameters_from_ros_args(tmp_path: Path) -> None:
         bad = Node("bad_types")
         with pytest.raises(ParameterError, match="expected integer"):
             bad.declare_parameter("label", 3)
-        from wildfire_msgs_py.runtime import Parameter
+        from wildfire_ros.runtime import Parameter
 
         result = node.set_parameters([Parameter("count", value="many")])
         assert not result[0].successful and "expected integer" in result[0].reason

@@ -29,3 +29,15 @@ def test_mypy() -> None:
         pytest.skip("mypy is not installed in this environment (scripts/setup.sh installs it)")
     done = subprocess.run([str(mypy)], cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_interface_package_does_not_import_the_runtime() -> None:
+    """Dependencies point one way: wildfire_ros builds on wildfire_msgs_py, never the reverse."""
+    interface = ROOT / "src" / "wildfire_msgs_py" / "wildfire_msgs_py"
+    offenders = [
+        f"{path.relative_to(ROOT)}:{number}"
+        for path in sorted(interface.rglob("*.py"))
+        for number, line in enumerate(path.read_text().splitlines(), 1)
+        if "import" in line and "wildfire_ros" in line
+    ]
+    assert offenders == []

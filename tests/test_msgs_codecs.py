@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from wildfire_msgs_py import codecs, contract
-from wildfire_msgs_py.dds.types import typestore
 from wildfire_msgs_py.errors import MessageFieldError
-from wildfire_msgs_py.introspection import message_to_yaml, set_message_fields
-from wildfire_msgs_py.runtime import deserialize_message, get_message, serialize_message
+from wildfire_msgs_py.types import typestore
+from wildfire_ros.introspection import message_to_yaml, set_message_fields
+from wildfire_ros.runtime import deserialize_message, get_message, serialize_message
 
 # The codecs build messages of the active backend (rclpy's rosidl classes or ours).
 pytestmark = pytest.mark.dds
@@ -155,9 +155,9 @@ def test_contract_names_and_lookup() -> None:
 
 
 def test_contract_qos_profile() -> None:
-    from wildfire_msgs_py.runtime import DurabilityPolicy, ReliabilityPolicy
+    from wildfire_ros.runtime import DurabilityPolicy, ReliabilityPolicy, qos_profile
 
-    profile = contract.FIRE_MAP.qos.profile()
+    profile = qos_profile(contract.FIRE_MAP.qos)
     assert profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
     assert profile.reliability == ReliabilityPolicy.RELIABLE and profile.depth == 1
 

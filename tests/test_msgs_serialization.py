@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from wildfire_msgs_py import codecs, contract
-from wildfire_msgs_py.dds.types import (
+from wildfire_msgs_py.errors import UnknownMessageTypeError, WildfireRosError
+from wildfire_msgs_py.types import (
     dds_type_name,
     deserialize,
     get_message,
@@ -17,8 +18,7 @@ from wildfire_msgs_py.dds.types import (
     serialize,
     typestore,
 )
-from wildfire_msgs_py.errors import UnknownMessageTypeError, WildfireRosError
-from wildfire_msgs_py.runtime import BACKEND
+from wildfire_ros.runtime import BACKEND
 
 # The codecs build messages of the active backend: these tests of our layer's serializer run
 # in the DDS pass of scripts/test.sh (the rclpy pass checks rclpy's bytes in test_msgs_codecs).

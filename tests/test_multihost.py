@@ -35,7 +35,7 @@ import pytest
 
 from backend_cases import BACKENDS, require_backend
 from wildfire_bringup import hosts
-from wildfire_msgs_py.network import (
+from wildfire_ros.network import (
     CONFLICTING_HOST_VARIABLES,
     apply_local_network_defaults,
     host_network_environment,

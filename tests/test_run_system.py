@@ -67,9 +67,9 @@ def obs_policy(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_lockstep_run_equals_evaluate(
     tmp_path: Path, dds_env: dict[str, str], obs_policy: Path, policy: str, n: int, duration: float
 ) -> None:
-    from wildfire_msgs_py.bag import read_messages
     from wildfire_msgs_py.codecs import score_from_msg
     from wildfire_msgs_py.system_codecs import stamped_state_from_msg
+    from wildfire_ros.bag import read_messages
 
     name = str(obs_policy) if policy == "obs" else policy
     seed = 5
@@ -204,7 +204,7 @@ def _pid_of(logs: Path, node: str, timeout: float = 20.0) -> int:
 def test_killed_node_is_named_and_the_bag_is_finalized(
     tmp_path: Path, dds_env: dict[str, str]
 ) -> None:
-    from wildfire_msgs_py.bag import bag_info
+    from wildfire_ros.bag import bag_info
 
     bag = tmp_path / "bag"
     process, logs = _start_run(
@@ -227,8 +227,8 @@ def test_killed_node_is_named_and_the_bag_is_finalized(
 
 @pytest.mark.slow
 def test_respawned_nodes_carry_on(tmp_path: Path, dds_env: dict[str, str]) -> None:
-    from wildfire_msgs_py.bag import read_messages
     from wildfire_msgs_py.codecs import score_from_msg, time_from_msg
+    from wildfire_ros.bag import read_messages
 
     bag = tmp_path / "bag"
     process, logs = _start_run(

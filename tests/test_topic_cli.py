@@ -160,8 +160,8 @@ def test_bad_ros_domain_is_reported(dds_env: dict[str, str]) -> None:
 
 def test_bag_info_prints_summary(tmp_path: Path, dds_env: dict[str, str]) -> None:
     from wildfire_msgs_py import codecs
-    from wildfire_msgs_py.bag import BagWriter
-    from wildfire_msgs_py.runtime import serialize_message as serialize
+    from wildfire_ros.bag import BagWriter
+    from wildfire_ros.runtime import serialize_message as serialize
 
     with BagWriter(tmp_path / "b") as writer:
         writer.add_topic("/wildfire/score", "std_msgs/msg/Float64")

@@ -17,6 +17,7 @@ setup(
         "scipy",
         "torch",
         "wildfire_msgs_py",
+        "wildfire_ros",
         "wildfire_sim",
         "wildfire_belief",
     ],

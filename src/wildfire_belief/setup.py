@@ -16,6 +16,7 @@ setup(
         "numpy",
         "opencv-python-headless",
         "wildfire_msgs_py",
+        "wildfire_ros",
         "wildfire_sim",
     ],
     zip_safe=True,

@@ -18,6 +18,7 @@ setup(
         "pyyaml",
         "rich",
         "wildfire_msgs_py",
+        "wildfire_ros",
         "wildfire_sim",
         "wildfire_belief",
         "wildfire_agent",

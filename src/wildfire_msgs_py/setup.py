@@ -6,20 +6,17 @@ setup(
     name=package_name,
     version="0.1.0",
     packages=find_packages(exclude=["test"]),
-    # data/fastdds_loopback.xml is config/fastdds_loopback.xml (a symlink in the source tree,
-    # copied into wheels and colcon installs): the runtime applies it by default.
-    package_data={package_name: ["py.typed", "data/*.xml"]},
+    package_data={package_name: ["py.typed"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
     ],
-    install_requires=["setuptools", "numpy", "pyyaml", "cyclonedds", "rosbags", "mcap"],
+    install_requires=["setuptools", "numpy", "cyclonedds", "rosbags"],
     zip_safe=True,
     maintainer="Wildfire surveillance maintainers",
     maintainer_email="wildfire@example.org",
     description=(
-        "Interface package: topic contract, numpy<->message codecs, ROS 2 "
-        "runtime binding (rclpy or Cyclone DDS)."
+        "Interface package: topic contract, numpy<->message codecs, wire checks, message types."
     ),
     license="Apache-2.0",
     entry_points={

@@ -11,7 +11,7 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
     ],
-    install_requires=["setuptools", "numpy", "torch", "wildfire_msgs_py"],
+    install_requires=["setuptools", "numpy", "torch", "wildfire_msgs_py", "wildfire_ros"],
     zip_safe=True,
     maintainer="Wildfire surveillance maintainers",
     maintainer_email="wildfire@example.org",

@@ -40,14 +40,6 @@ from wildfire_agent.protocol import (
 )
 from wildfire_msgs_py import codecs, contract, system_codecs
 from wildfire_msgs_py.input_guard import InputGuard
-from wildfire_msgs_py.node_support import (
-    ParamSpec,
-    contract_publisher,
-    contract_subscription,
-    declare_parameters,
-    run_node,
-)
-from wildfire_msgs_py.runtime import Node
 from wildfire_msgs_py.wire_checks import (
     checked_age_image,
     checked_episode,
@@ -55,6 +47,14 @@ from wildfire_msgs_py.wire_checks import (
     checked_score,
     checked_stamped_state,
 )
+from wildfire_ros.node_support import (
+    ParamSpec,
+    contract_publisher,
+    contract_subscription,
+    declare_parameters,
+    run_node,
+)
+from wildfire_ros.runtime import Node
 from wildfire_sim.episode import EPISODE_DEFAULTS, MODES
 
 PARAMETERS = (

@@ -40,16 +40,16 @@ from wildfire_msgs_py.codecs import (
     score_to_msg,
 )
 from wildfire_msgs_py.input_guard import InputGuard
-from wildfire_msgs_py.node_support import (
+from wildfire_msgs_py.system_codecs import ack_to_msg, age_image_to_msg
+from wildfire_msgs_py.wire_checks import checked_episode, checked_snapshot, checked_visit
+from wildfire_ros.node_support import (
     ParamSpec,
     contract_publisher,
     contract_subscription,
     declare_parameters,
     run_node,
 )
-from wildfire_msgs_py.runtime import Node
-from wildfire_msgs_py.system_codecs import ack_to_msg, age_image_to_msg
-from wildfire_msgs_py.wire_checks import checked_episode, checked_snapshot, checked_visit
+from wildfire_ros.runtime import Node
 from wildfire_sim.episode import (
     DECISION_PERIOD_NS,
     EPISODE_DEFAULTS,

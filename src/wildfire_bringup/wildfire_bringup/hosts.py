@@ -20,7 +20,7 @@ ground station and the aircraft talk over the network only. With two hosts, host
 The launcher's own participant joins host 0 by ``setns(2)`` of the calling (main) thread before
 the runtime creates any DDS entity; the threads DDS starts afterwards inherit the namespace. Node
 processes start under ``ip netns exec <host>``. Every process gets its host's DDS variables
-(:func:`wildfire_msgs_py.network.host_network_environment`): both middlewares bound to the host's
+(:func:`wildfire_ros.network.host_network_environment`): both middlewares bound to the host's
 address, discovery unicast to the K host addresses.
 
 Network faults (:mod:`wildfire_bringup.netfaults`): with a :class:`NetemSpec` every host's ``wf0``
@@ -50,7 +50,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from wildfire_bringup.netfaults import NetemSpec
-from wildfire_msgs_py.network import CONFLICTING_HOST_VARIABLES, host_network_environment
+from wildfire_ros.network import CONFLICTING_HOST_VARIABLES, host_network_environment
 
 if TYPE_CHECKING:
     from collections.abc import Iterator, MutableMapping

@@ -7,7 +7,7 @@ process spins the :class:`RunMonitorNode` and, with a record directory, the rosb
 
 Every child gets the run's ``ROS_DOMAIN_ID`` (a run-unique id unless the user set one) and
 the loopback-only settings of both DDS implementations (unless the user set their own, see
-:mod:`wildfire_msgs_py.network`), so nothing leaves the machine. A child's output goes to
+:mod:`wildfire_ros.network`), so nothing leaves the machine. A child's output goes to
 ``<log dir>/<node>.log``; a child is stopped with the launcher even when the launcher is
 killed. When a child dies the launcher names it, its exit status and the last line it
 wrote, finalizes the recording and stops the rest — or, with ``respawn`` in real time,
@@ -42,7 +42,7 @@ import numpy as np
 from wildfire_bringup.hosts import LAUNCHER, VirtualHosts
 from wildfire_bringup.monitor_node import REPORTER, RunMonitorNode
 from wildfire_bringup.netfaults import NetemSpec, Partition, PartitionRecord
-from wildfire_msgs_py.network import apply_local_network_defaults
+from wildfire_ros.network import apply_local_network_defaults
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -417,7 +417,7 @@ class Launcher:
     def _run(
         self, progress: Callable[[int], None] | None, timeout_s: float | None
     ) -> RunMonitorNode:
-        from wildfire_msgs_py import runtime
+        from wildfire_ros import runtime
 
         os.environ["ROS_DOMAIN_ID"] = self.env["ROS_DOMAIN_ID"]
         apply_local_network_defaults()
@@ -430,7 +430,7 @@ class Launcher:
             self.monitor = RunMonitorNode(self.spec.n_aircraft, self.spec.lockstep, self.spec.seed)
             self.executor.add_node(self.monitor)
             if self.spec.record_dir is not None:
-                from wildfire_msgs_py.bag import BagRecorder
+                from wildfire_ros.bag import BagRecorder
 
                 # Lockstep bags log sim time (/clock), so `bag play` replays them at sim pace.
                 self.recorder = BagRecorder(

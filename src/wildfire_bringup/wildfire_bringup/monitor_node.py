@@ -31,8 +31,6 @@ from wildfire_msgs_py.input_guard import (
     TickInbox,
     check_status_tick,
 )
-from wildfire_msgs_py.node_support import contract_publisher, contract_subscription
-from wildfire_msgs_py.runtime import Node
 from wildfire_msgs_py.system_codecs import READY_SUFFIX, EpisodeStatus, ack_to_msg
 from wildfire_msgs_py.wire_checks import (
     checked_age_image,
@@ -41,6 +39,8 @@ from wildfire_msgs_py.wire_checks import (
     checked_score,
     checked_stamped_state,
 )
+from wildfire_ros.node_support import contract_publisher, contract_subscription
+from wildfire_ros.runtime import Node
 from wildfire_sim.episode import DECISION_PERIOD_NS as TICK_NS
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
 

@@ -29,12 +29,12 @@ from typing import Any
 import numpy as np
 
 from wildfire_msgs_py import codecs, contract, system_codecs
-from wildfire_msgs_py.node_support import (
+from wildfire_ros.node_support import (
     contract_publisher,
     contract_subscription,
     interrupt_on_stop_signals,
 )
-from wildfire_msgs_py.runtime import Node, SingleThreadedExecutor, rclpy
+from wildfire_ros.runtime import Node, SingleThreadedExecutor, rclpy
 
 TICK_NS = 100_000_000
 FAR_FUTURE_NS = 10**15

@@ -56,9 +56,9 @@ from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
 from wildfire_msgs_py import codecs, contract
-from wildfire_msgs_py.bag import bag_info, read_messages
 from wildfire_msgs_py.errors import WildfireRosError
 from wildfire_msgs_py.system_codecs import stamped_state_from_msg
+from wildfire_ros.bag import bag_info, read_messages
 from wildfire_sim.episode import DECISION_PERIOD_NS, DECISIONS_PER_FIRE_STEP, fire_at_border
 from wildfire_sim.grid import GRID_SIZE
 

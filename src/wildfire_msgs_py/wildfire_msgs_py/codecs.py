@@ -56,7 +56,7 @@ _NS_PER_S = 1_000_000_000
 def _message(type_name: str, message_class: Any = None) -> Any:
     if message_class is not None:
         return message_class()
-    from wildfire_msgs_py.runtime import get_message
+    from wildfire_msgs_py.messages import get_message
 
     return get_message(type_name)()
 
@@ -373,7 +373,7 @@ class NodeStatus(NamedTuple):
 
 def diagnostics_to_msg(statuses: list[NodeStatus], stamp: Any = 0) -> Any:
     """Statuses -> ``diagnostic_msgs/msg/DiagnosticArray``; numbers written with ``repr``."""
-    from wildfire_msgs_py.runtime import get_message
+    from wildfire_msgs_py.messages import get_message
 
     msg = _message("diagnostic_msgs/msg/DiagnosticArray")
     _set_stamp(msg.header, stamp, "")

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -59,28 +59,6 @@ class QosSpec:
     """RELIABLE when true, BEST_EFFORT otherwise."""
     transient_local: bool = False
     """TRANSIENT_LOCAL (late joiners get the last ``depth`` messages) or VOLATILE."""
-
-    def profile(self) -> Any:
-        """The ``QoSProfile`` of the active runtime backend."""
-        from wildfire_msgs_py.runtime import (
-            DurabilityPolicy,
-            HistoryPolicy,
-            QoSProfile,
-            ReliabilityPolicy,
-        )
-
-        return QoSProfile(
-            history=HistoryPolicy.KEEP_LAST,
-            depth=self.depth,
-            reliability=(
-                ReliabilityPolicy.RELIABLE if self.reliable else ReliabilityPolicy.BEST_EFFORT
-            ),
-            durability=(
-                DurabilityPolicy.TRANSIENT_LOCAL
-                if self.transient_local
-                else DurabilityPolicy.VOLATILE
-            ),
-        )
 
 
 LATCHED = QosSpec(depth=1, reliable=True, transient_local=True)

@@ -60,7 +60,7 @@ class EpisodeStatus(NamedTuple):
 
 def episode_to_msg(phase: str, values: dict[str, Any], *, message_class: Any = None) -> Any:
     """Episode phase and values -> ``diagnostic_msgs/msg/DiagnosticStatus``."""
-    from wildfire_msgs_py.runtime import get_message
+    from wildfire_msgs_py.messages import get_message
 
     if phase not in PHASES:
         raise ValueError(f"episode phase {phase!r}: expected one of {PHASES}")

@@ -33,16 +33,16 @@ from wildfire_msgs_py.codecs import (
     fuel_grid_to_msg,
 )
 from wildfire_msgs_py.input_guard import InputGuard
-from wildfire_msgs_py.node_support import (
+from wildfire_msgs_py.system_codecs import episode_to_msg
+from wildfire_msgs_py.wire_checks import checked_ack
+from wildfire_ros.node_support import (
     ParamSpec,
     contract_publisher,
     contract_subscription,
     declare_parameters,
     run_node,
 )
-from wildfire_msgs_py.runtime import Node
-from wildfire_msgs_py.system_codecs import episode_to_msg
-from wildfire_msgs_py.wire_checks import checked_ack
+from wildfire_ros.runtime import Node
 from wildfire_sim.episode import (
     DECISION_PERIOD_NS,
     EPISODE_DEFAULTS,

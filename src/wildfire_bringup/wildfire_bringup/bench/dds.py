@@ -137,11 +137,11 @@ def _raw_roundtrip_s(count: int, domain_id: int) -> float:
 def _layer_roundtrip_s(count: int, domain_id: int) -> float:
     """Mean seconds per grid through our layer: codec + publish + executor + decode."""
     from wildfire_msgs_py.codecs import fire_grid_from_msg, grid_to_msg
-    from wildfire_msgs_py.dds.context import Context
-    from wildfire_msgs_py.dds.executor import SingleThreadedExecutor
-    from wildfire_msgs_py.dds.node import Node
-    from wildfire_msgs_py.dds.qos import QoSProfile
-    from wildfire_msgs_py.dds.types import get_message
+    from wildfire_msgs_py.types import get_message
+    from wildfire_ros.dds.context import Context
+    from wildfire_ros.dds.executor import SingleThreadedExecutor
+    from wildfire_ros.dds.node import Node
+    from wildfire_ros.dds.qos import QoSProfile
 
     context = Context()
     context.init([], domain_id=domain_id)
@@ -173,11 +173,11 @@ def _layer_roundtrip_s(count: int, domain_id: int) -> float:
 def _subscriber_main(expected: int, timeout_s: float, domain_id: int) -> None:
     """Child process: receive grids, print latencies (ms) as JSON on stdout."""
     from wildfire_msgs_py.codecs import grid_from_msg, time_from_msg
-    from wildfire_msgs_py.dds.context import Context
-    from wildfire_msgs_py.dds.executor import SingleThreadedExecutor
-    from wildfire_msgs_py.dds.node import Node
-    from wildfire_msgs_py.dds.qos import QoSProfile
-    from wildfire_msgs_py.dds.types import get_message
+    from wildfire_msgs_py.types import get_message
+    from wildfire_ros.dds.context import Context
+    from wildfire_ros.dds.executor import SingleThreadedExecutor
+    from wildfire_ros.dds.node import Node
+    from wildfire_ros.dds.qos import QoSProfile
 
     context = Context()
     context.init([], domain_id=domain_id)
@@ -205,10 +205,10 @@ def _subscriber_main(expected: int, timeout_s: float, domain_id: int) -> None:
 def _grid_latency(subscribers: int, messages: int, domain_id: int) -> list[float]:
     """Publish ``messages`` grids at 10 Hz to subscriber processes; all latencies in ms."""
     from wildfire_msgs_py.codecs import grid_to_msg
-    from wildfire_msgs_py.dds.context import Context
-    from wildfire_msgs_py.dds.node import Node
-    from wildfire_msgs_py.dds.qos import QoSProfile
-    from wildfire_msgs_py.dds.types import get_message
+    from wildfire_msgs_py.types import get_message
+    from wildfire_ros.dds.context import Context
+    from wildfire_ros.dds.node import Node
+    from wildfire_ros.dds.qos import QoSProfile
 
     timeout_s = 30.0 + messages * 0.1
     env = dict(os.environ)
@@ -261,7 +261,7 @@ def _grid_latency(subscribers: int, messages: int, domain_id: int) -> list[float
 
 def bench_dds(quick: bool = False) -> dict[str, float | int]:
     """Run the DDS benchmarks; ``quick`` shortens them (about 10 s instead of 25 s)."""
-    from wildfire_msgs_py.network import apply_local_network_defaults
+    from wildfire_ros.network import apply_local_network_defaults
 
     apply_local_network_defaults()
     domain_id = _bench_domain_id()

@@ -37,7 +37,7 @@ RECOVERY_TARGET_S = 3.0
 
 def _runtime_node(name: str) -> tuple[Any, Any, Any]:
     """``(runtime, node, Header)`` on this process's backend."""
-    from wildfire_msgs_py import runtime
+    from wildfire_ros import runtime
 
     runtime.rclpy.init(args=[])
     return runtime, runtime.Node(name), runtime.get_message("std_msgs/msg/Header")

@@ -50,7 +50,7 @@ def measure_system(quick: bool = False) -> dict[str, Any]:
     """Lockstep speed-up (3 aircraft) and real-time missed deadlines (8 aircraft), this process's
     backend."""
     from wildfire_bringup.launcher import Launcher
-    from wildfire_msgs_py.runtime import BACKEND, rmw_implementation
+    from wildfire_ros.runtime import BACKEND, rmw_implementation
 
     duration = 20.0 if quick else 60.0
     launcher = Launcher(_spec(3, duration, lockstep=True))

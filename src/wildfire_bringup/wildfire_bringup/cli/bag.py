@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 from wildfire_bringup.cli.common import UserError, positive_float, print_json
 
 if TYPE_CHECKING:
-    from wildfire_msgs_py.bag import BagInfo
+    from wildfire_ros.bag import BagInfo
 
 
 def _non_negative_float(text: str) -> float:
@@ -31,8 +31,8 @@ def _topic_name(text: str) -> str:
 
 def add_parser(subparsers: Any) -> None:
     """Register ``wildfire bag``."""
-    from wildfire_msgs_py.bag import BULKY_TOPICS
-    from wildfire_msgs_py.mcap_writer import DEFAULT_PRESET, PRESETS
+    from wildfire_ros.bag import BULKY_TOPICS
+    from wildfire_ros.mcap_writer import DEFAULT_PRESET, PRESETS
 
     parser = subparsers.add_parser(
         "bag",
@@ -127,9 +127,9 @@ def add_parser(subparsers: Any) -> None:
 
 def run_record(args: argparse.Namespace) -> int:
     """``bag record``: finalizes the bag on Ctrl-C, SIGTERM or ``--duration``."""
-    from wildfire_msgs_py.bag import BULKY_TOPICS, BagRecorder
-    from wildfire_msgs_py.node_support import interrupt_on_stop_signals
-    from wildfire_msgs_py.runtime import rclpy
+    from wildfire_ros.bag import BULKY_TOPICS, BagRecorder
+    from wildfire_ros.node_support import interrupt_on_stop_signals
+    from wildfire_ros.runtime import rclpy
 
     if args.all == bool(args.topics):
         raise UserError("give either -a/--all or one or more topics")
@@ -177,9 +177,9 @@ def run_record(args: argparse.Namespace) -> int:
 def run_play(args: argparse.Namespace) -> int:
     """``bag play``: Ctrl-C stops it cleanly (exit status 0, as ros2 bag play)."""
     from wildfire_bringup.cli.progress import progress_bar
-    from wildfire_msgs_py.bag_play import BagPlayer
-    from wildfire_msgs_py.node_support import interrupt_on_stop_signals
-    from wildfire_msgs_py.runtime import rclpy
+    from wildfire_ros.bag_play import BagPlayer
+    from wildfire_ros.node_support import interrupt_on_stop_signals
+    from wildfire_ros.runtime import rclpy
 
     topics = None if args.topics is None else [_topic_name(t) for t in args.topics]
     interrupt_on_stop_signals()
@@ -227,8 +227,8 @@ def run_play(args: argparse.Namespace) -> int:
 
 def run_convert(args: argparse.Namespace) -> int:
     """``bag convert IN OUT``."""
-    from wildfire_msgs_py.bag import bag_info
-    from wildfire_msgs_py.bag_repair import convert
+    from wildfire_ros.bag import bag_info
+    from wildfire_ros.bag_repair import convert
 
     before = bag_info(args.input, sizes=False)
     result = convert(args.input, args.output, args.compression)
@@ -253,7 +253,7 @@ def run_convert(args: argparse.Namespace) -> int:
 
 def run_reindex(args: argparse.Namespace) -> int:
     """``bag reindex DIR``."""
-    from wildfire_msgs_py.bag_repair import reindex
+    from wildfire_ros.bag_repair import reindex
 
     result = reindex(args.bag)
     summary = {
@@ -314,7 +314,7 @@ def _info_json(info: BagInfo) -> dict[str, Any]:
 
 def run_info(args: argparse.Namespace) -> int:
     """``bag info``."""
-    from wildfire_msgs_py.bag import bag_info
+    from wildfire_ros.bag import bag_info
 
     info = bag_info(args.bag)
     if args.json:

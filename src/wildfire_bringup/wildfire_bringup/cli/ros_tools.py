@@ -22,8 +22,8 @@ def ros_node(name: str) -> Iterator[Any]:
     SIGTERM ends the command as Ctrl-C does (one line, no traceback): left to rclpy, it
     invalidates the context under the command's next graph query.
     """
-    from wildfire_msgs_py.node_support import interrupt_on_stop_signals
-    from wildfire_msgs_py.runtime import Node, rclpy
+    from wildfire_ros.node_support import interrupt_on_stop_signals
+    from wildfire_ros.runtime import Node, rclpy
 
     interrupt_on_stop_signals()
     rclpy.init(args=[])
@@ -50,18 +50,18 @@ def wait_for_topic_type(node: Any, topic: str, timeout: float | None) -> str | N
 
 
 def subscription_qos(node: Any, topic: str, depth: int = 10) -> Any:
-    """A QoS matching the topic's publishers (see :func:`wildfire_msgs_py.graph.adapted_qos`)."""
-    from wildfire_msgs_py.graph import adapted_qos
+    """A QoS matching the topic's publishers (see :func:`wildfire_ros.graph.adapted_qos`)."""
+    from wildfire_ros.graph import adapted_qos
 
     return adapted_qos(node, topic, depth)
 
 
 def publisher_qos(topic: str, depth: int = 10) -> Any:
     """The contract's QoS for a topic of the system, else reliable/volatile with ``depth``."""
-    from wildfire_msgs_py.runtime import QoSProfile
+    from wildfire_ros.runtime import QoSProfile, qos_profile
 
     spec = spec_for(topic)
-    return spec.qos.profile() if spec is not None else QoSProfile(depth=depth)
+    return qos_profile(spec.qos) if spec is not None else QoSProfile(depth=depth)
 
 
 __all__ = ["publisher_qos", "ros_node", "subscription_qos", "wait_for_topic_type"]

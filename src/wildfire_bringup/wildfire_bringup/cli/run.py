@@ -239,7 +239,7 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         if len(trajectory) > 1
         else np.zeros(spec.n_aircraft)
     )
-    from wildfire_msgs_py.runtime import BACKEND, rmw_implementation
+    from wildfire_ros.runtime import BACKEND, rmw_implementation
 
     result: dict[str, Any] = {
         "backend": BACKEND,
@@ -315,7 +315,7 @@ def network_faults(launcher: Any) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     from wildfire_bringup.hosts import HostNetworkError
     from wildfire_bringup.launcher import Launcher, NodeFailure
-    from wildfire_msgs_py.node_support import interrupt_on_stop_signals
+    from wildfire_ros.node_support import interrupt_on_stop_signals
 
     if args.png is not None and not os.access(args.png.resolve().parent, os.W_OK):
         raise UserError(f"--png {args.png}: its directory is not writable")

@@ -150,8 +150,8 @@ def run_list(args: argparse.Namespace) -> int:
 
 def run_echo(args: argparse.Namespace) -> int:
     """``topic echo``."""
-    from wildfire_msgs_py.introspection import message_to_yaml
-    from wildfire_msgs_py.runtime import get_message, rclpy
+    from wildfire_ros.introspection import message_to_yaml
+    from wildfire_ros.runtime import get_message, rclpy
 
     topic = _absolute(args.topic)
     msg_type = get_message(args.type) if args.type else None  # bad type: fail before DDS
@@ -191,7 +191,7 @@ def run_echo(args: argparse.Namespace) -> int:
 
 def run_hz(args: argparse.Namespace) -> int:
     """``topic hz``: rate statistics printed every second."""
-    from wildfire_msgs_py.runtime import get_message, rclpy
+    from wildfire_ros.runtime import get_message, rclpy
 
     topic = _absolute(args.topic)
     with ros_node("wildfire_topic_hz") as node:
@@ -236,7 +236,7 @@ def format_rate(arrivals: list[float]) -> str:
 
 def run_info(args: argparse.Namespace) -> int:
     """``topic info``."""
-    from wildfire_msgs_py.graph import endpoint_infos
+    from wildfire_ros.graph import endpoint_infos
 
     topic = _absolute(args.topic)
     with ros_node("wildfire_topic_info") as node:
@@ -278,8 +278,8 @@ def parse_values(text: str) -> Any:
 
 def run_pub(args: argparse.Namespace) -> int:
     """``topic pub``."""
-    from wildfire_msgs_py.introspection import set_message_fields
-    from wildfire_msgs_py.runtime import Duration, get_message, rclpy
+    from wildfire_ros.introspection import set_message_fields
+    from wildfire_ros.runtime import Duration, get_message, rclpy
 
     topic = _absolute(args.topic)
     msg_type = get_message(args.type)

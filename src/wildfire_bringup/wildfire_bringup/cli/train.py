@@ -30,7 +30,7 @@ from wildfire_learning.checkpoint import CHECKPOINT_FILE, load_checkpoint, upgra
 from wildfire_learning.device import resolve_device
 from wildfire_learning.dqn import RunOptions, TrainConfig, config_from_dict, train
 from wildfire_learning.progress import Status
-from wildfire_msgs_py.node_support import interrupt_on_stop_signals
+from wildfire_ros.node_support import interrupt_on_stop_signals
 
 
 def add_config_options(parser: argparse.ArgumentParser) -> None:

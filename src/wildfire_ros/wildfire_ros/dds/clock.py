@@ -8,7 +8,7 @@ from enum import IntEnum
 from functools import total_ordering
 from typing import Any
 
-from wildfire_msgs_py.dds.types import get_message
+from wildfire_msgs_py.types import get_message
 
 _NS_PER_S = 1_000_000_000
 

@@ -86,7 +86,7 @@ def _is_sequence_type(type_string: str) -> bool:
 
 def set_message_fields(msg: Any, values: Any, path: str = "") -> Any:
     """Set fields of ``msg`` from a nested dict (as ``rosidl_runtime_py.set_message_fields``)."""
-    from wildfire_msgs_py.runtime import get_message
+    from wildfire_ros.runtime import get_message
 
     if values is None:
         return msg

@@ -16,15 +16,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from wildfire_msgs_py.bag import (
+from wildfire_msgs_py.contract import spec_for
+from wildfire_msgs_py.errors import BagError
+from wildfire_ros.bag import (
     QosSummary,
     bag_info,
     open_reader,
     qos_summary,
     read_messages,
 )
-from wildfire_msgs_py.contract import spec_for
-from wildfire_msgs_py.errors import BagError
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable
@@ -119,7 +119,7 @@ class BagPlayer:
         loop: bool = False,
         node_name: str = "wildfire_bag_player",
     ) -> None:
-        from wildfire_msgs_py.runtime import Node
+        from wildfire_ros.runtime import Node
 
         if rate <= 0:
             raise BagError(f"--rate {rate}: expected a rate > 0")
@@ -144,7 +144,7 @@ class BagPlayer:
         return sum(t.message_count for t in self.topics)
 
     def _create_publishers(self) -> None:
-        from wildfire_msgs_py.runtime import (
+        from wildfire_ros.runtime import (
             DurabilityPolicy,
             HistoryPolicy,
             QoSProfile,
@@ -177,7 +177,7 @@ class BagPlayer:
         return {name: p.get_subscription_count() for name, p in self._publishers.items()}
 
     def _publish(self, topic: str, data: bytes) -> None:
-        from wildfire_msgs_py.runtime import BACKEND, deserialize_message
+        from wildfire_ros.runtime import BACKEND, deserialize_message
 
         publisher = self._publishers[topic]
         if BACKEND == "rclpy":
@@ -187,7 +187,7 @@ class BagPlayer:
 
     def _wait_until(self, deadline: float) -> None:
         """Sleep until the monotonic ``deadline``, serving the node's events meanwhile."""
-        from wildfire_msgs_py.runtime import rclpy
+        from wildfire_ros.runtime import rclpy
 
         while True:
             left = deadline - time.monotonic()
@@ -238,7 +238,7 @@ class BagPlayer:
 
     def close(self, linger_s: float = 0.5) -> None:
         """Let reliable messages reach their subscribers, then destroy the node."""
-        from wildfire_msgs_py.runtime import BACKEND, Duration
+        from wildfire_ros.runtime import BACKEND, Duration
 
         try:
             if BACKEND == "rclpy":

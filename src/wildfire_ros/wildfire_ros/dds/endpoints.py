@@ -10,13 +10,13 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.util import duration
 
-from wildfire_msgs_py.dds.qos import QoSProfile, ReliabilityPolicy, to_cyclone
+from wildfire_ros.dds.qos import QoSProfile, ReliabilityPolicy, to_cyclone
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from wildfire_msgs_py.dds.clock import Clock
-    from wildfire_msgs_py.dds.context import Context
+    from wildfire_ros.dds.clock import Clock
+    from wildfire_ros.dds.context import Context
 
 _ANY_STATE = SampleState.Any | ViewState.Any | InstanceState.Any
 
@@ -26,7 +26,7 @@ def check_message_type(msg_type: Any) -> None:
     if not hasattr(msg_type, "_ros_type") or not hasattr(msg_type, "__idl__"):
         raise TypeError(
             f"{msg_type!r} is not a message class of the DDS backend: "
-            "use wildfire_msgs_py.runtime.get_message('pkg/msg/Type')"
+            "use wildfire_ros.runtime.get_message('pkg/msg/Type')"
         )
 
 
@@ -61,7 +61,7 @@ class Publisher:
     def wait_for_all_acked(self, timeout: Any = None) -> bool:
         """Block until every matched reliable reader acknowledged what was written.
 
-        ``timeout`` is a :class:`~wildfire_msgs_py.dds.clock.Duration` (None: forever), as in
+        ``timeout`` is a :class:`~wildfire_ros.dds.clock.Duration` (None: forever), as in
         rclpy. Best-effort publishers return True at once.
         """
         if self._writer is None or self.qos_profile.reliability != ReliabilityPolicy.RELIABLE:

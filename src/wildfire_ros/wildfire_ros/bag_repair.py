@@ -29,15 +29,15 @@ from mcap.exceptions import McapError
 from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Metadata, Schema
 from mcap.stream_reader import CRCValidationError, StreamReader, breakup_chunk
 
-from wildfire_msgs_py.bag import (
+from wildfire_msgs_py.errors import BagError
+from wildfire_ros.bag import (
     PRESET_KEY,
     BagWriter,
     open_reader,
     parse_offered_qos,
     read_custom_data,
 )
-from wildfire_msgs_py.errors import BagError
-from wildfire_msgs_py.mcap_writer import DEFAULT_PRESET, PRESETS
+from wildfire_ros.mcap_writer import DEFAULT_PRESET, PRESETS
 
 if TYPE_CHECKING:
     from collections.abc import Iterator

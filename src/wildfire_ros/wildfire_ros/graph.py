@@ -28,7 +28,7 @@ class EndpointInfo(NamedTuple):
 
 def endpoint_infos(node: Any, topic: str) -> list[EndpointInfo]:
     """Every endpoint of ``topic`` in the graph with its QoS, on either backend."""
-    from wildfire_msgs_py.runtime import BACKEND, HistoryPolicy
+    from wildfire_ros.runtime import BACKEND, HistoryPolicy
 
     if BACKEND == "dds":
         return [
@@ -62,7 +62,7 @@ def endpoint_infos(node: Any, topic: str) -> list[EndpointInfo]:
 
 def publisher_qos_flags(node: Any, topic: str) -> tuple[bool, bool] | None:
     """(all reliable, all transient-local) over the topic's publishers; None when none known."""
-    from wildfire_msgs_py.runtime import BACKEND, DurabilityPolicy, ReliabilityPolicy
+    from wildfire_ros.runtime import BACKEND, DurabilityPolicy, ReliabilityPolicy
 
     if BACKEND == "dds":
         publishers = [
@@ -88,7 +88,7 @@ def adapted_qos(node: Any, topic: str, depth: int = 10) -> Any:
 
     Falls back to the contract's QoS for topics of the system, else reliable/volatile.
     """
-    from wildfire_msgs_py.runtime import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from wildfire_ros.runtime import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
     flags = publisher_qos_flags(node, topic)
     if flags is None:

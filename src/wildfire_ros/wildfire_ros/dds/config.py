@@ -1,6 +1,6 @@
 """Cyclone DDS settings of the DDS backend: the domain id, checked as ROS 2 does.
 
-The loopback-only network configuration lives in :mod:`wildfire_msgs_py.network`, shared with the
+The loopback-only network configuration lives in :mod:`wildfire_ros.network`, shared with the
 rclpy backend.
 """
 

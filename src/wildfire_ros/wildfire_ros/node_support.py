@@ -47,7 +47,7 @@ class ParamSpec:
     """Allowed values of a string parameter."""
 
     def descriptor(self) -> Any:
-        from wildfire_msgs_py.runtime import FloatingPointRange, IntegerRange, ParameterDescriptor
+        from wildfire_ros.runtime import FloatingPointRange, IntegerRange, ParameterDescriptor
 
         descriptor = ParameterDescriptor(name=self.name, description=self.description)
         if self.low is not None and self.high is not None:
@@ -105,12 +105,12 @@ def _command_line_overrides(node: Any) -> dict[str, Any]:
 
     The DDS backend keeps them on the node. rclpy merges every source into one dict with no
     origin, so the command line rclpy was initialized with is parsed again by the same parser
-    (:func:`wildfire_msgs_py.dds.arguments.parse_ros_arguments`).
+    (:func:`wildfire_ros.dds.arguments.parse_ros_arguments`).
     """
     overrides = getattr(node, "_overrides", None)
     if overrides is not None:
         return dict(overrides)
-    from wildfire_msgs_py.dds.arguments import parse_ros_arguments
+    from wildfire_ros.dds.arguments import parse_ros_arguments
 
     args = sys.argv if _init_args is None else _init_args
     return parse_ros_arguments(args).parameters_for(node.get_fully_qualified_name())
@@ -135,16 +135,18 @@ def _accept_integer_for_double(node: Any, spec: ParamSpec) -> None:
         return
     value = overrides[spec.name].value
     if isinstance(value, int) and not isinstance(value, bool):
-        from wildfire_msgs_py.runtime import Parameter
+        from wildfire_ros.runtime import Parameter
 
         overrides[spec.name] = Parameter(spec.name, value=float(value))
 
 
 def contract_publisher(node: Any, spec: TopicSpec, aircraft: int | None = None) -> Any:
     """Publisher of ``spec`` (aircraft ``aircraft``'s instance for per-aircraft topics)."""
-    from wildfire_msgs_py.runtime import get_message
+    from wildfire_ros.runtime import get_message, qos_profile
 
-    return node.create_publisher(get_message(spec.type), spec.resolve(aircraft), spec.qos.profile())
+    return node.create_publisher(
+        get_message(spec.type), spec.resolve(aircraft), qos_profile(spec.qos)
+    )
 
 
 def contract_subscription(
@@ -160,13 +162,13 @@ def contract_subscription(
     With a ``guard``, a message the callback rejects (or cannot decode) is dropped and counted
     instead of raising out of the executor: any participant may publish anything.
     """
-    from wildfire_msgs_py.runtime import get_message
+    from wildfire_ros.runtime import get_message, qos_profile
 
     topic = spec.resolve(aircraft)
     if guard is not None:
         callback = guard.guarded(topic, callback)
     return node.create_subscription(
-        get_message(spec.type), topic, callback, (qos or spec.qos).profile()
+        get_message(spec.type), topic, callback, qos_profile(qos or spec.qos)
     )
 
 
@@ -196,8 +198,8 @@ def run_node(
 
     SIGINT and SIGTERM end the node cleanly (:func:`interrupt_on_stop_signals`).
     """
-    from wildfire_msgs_py.dds.arguments import parse_ros_arguments
-    from wildfire_msgs_py.runtime import (
+    from wildfire_ros.dds.arguments import parse_ros_arguments
+    from wildfire_ros.runtime import (
         INIT_ERRORS,
         PARAMETER_ERRORS,
         ExternalShutdownException,

@@ -17,8 +17,8 @@ from cyclonedds.builtin import (
 )
 from cyclonedds.core import InstanceState, SampleState, ViewState
 
-from wildfire_msgs_py.dds.qos import describe_cyclone
-from wildfire_msgs_py.dds.types import ros_type_name
+from wildfire_msgs_py.types import ros_type_name
+from wildfire_ros.dds.qos import describe_cyclone
 
 _ANY = SampleState.Any | ViewState.Any | InstanceState.Any
 

@@ -4,21 +4,21 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from wildfire_msgs_py.dds.clock import ROSClock
-from wildfire_msgs_py.dds.context import Context, default_context
-from wildfire_msgs_py.dds.endpoints import Publisher, Subscription, Timer
-from wildfire_msgs_py.dds.log import Logger
-from wildfire_msgs_py.dds.names import expand_topic_name, validate_namespace, validate_node_name
-from wildfire_msgs_py.dds.parameters import (
+from wildfire_msgs_py.errors import ParameterError, ShutdownError
+from wildfire_msgs_py.types import get_message
+from wildfire_ros.dds.clock import ROSClock
+from wildfire_ros.dds.context import Context, default_context
+from wildfire_ros.dds.endpoints import Publisher, Subscription, Timer
+from wildfire_ros.dds.log import Logger
+from wildfire_ros.dds.names import expand_topic_name, validate_namespace, validate_node_name
+from wildfire_ros.dds.parameters import (
     Parameter,
     ParameterType,
     SetParametersResult,
     check_range,
     coerce,
 )
-from wildfire_msgs_py.dds.qos import QoSProfile, ReliabilityPolicy, as_profile
-from wildfire_msgs_py.dds.types import get_message
-from wildfire_msgs_py.errors import ParameterError, ShutdownError
+from wildfire_ros.dds.qos import QoSProfile, ReliabilityPolicy, as_profile
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Sequence

@@ -15,11 +15,11 @@ from cyclonedds.core import DDSException, GuardCondition
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.topic import Topic
 
-from wildfire_msgs_py.dds.arguments import RosArguments, parse_ros_arguments
-from wildfire_msgs_py.dds.config import ros_domain_id
-from wildfire_msgs_py.dds.log import set_global_level
 from wildfire_msgs_py.errors import ShutdownError, TopicNameError
-from wildfire_msgs_py.network import apply_local_network_defaults
+from wildfire_ros.dds.arguments import RosArguments, parse_ros_arguments
+from wildfire_ros.dds.config import ros_domain_id
+from wildfire_ros.dds.log import set_global_level
+from wildfire_ros.network import apply_local_network_defaults
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -94,7 +94,7 @@ class Context:
         """The lazily created graph monitor (builtin-topic readers)."""
         with self._lock:
             if self._graph is None:
-                from wildfire_msgs_py.dds.graph import GraphMonitor
+                from wildfire_ros.dds.graph import GraphMonitor
 
                 self._graph = GraphMonitor(self.participant)
             return self._graph

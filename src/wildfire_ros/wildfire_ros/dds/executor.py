@@ -14,11 +14,11 @@ from typing import TYPE_CHECKING, Any
 
 from cyclonedds.core import DDSException, GuardCondition, WaitSet
 
-from wildfire_msgs_py.dds.context import Context, ExternalShutdownException, default_context
+from wildfire_ros.dds.context import Context, ExternalShutdownException, default_context
 
 if TYPE_CHECKING:
-    from wildfire_msgs_py.dds.endpoints import Subscription, Timer
-    from wildfire_msgs_py.dds.node import Node
+    from wildfire_ros.dds.endpoints import Subscription, Timer
+    from wildfire_ros.dds.node import Node
 
 _SLICE_NS = 100_000_000
 

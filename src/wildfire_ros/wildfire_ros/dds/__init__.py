@@ -1,24 +1,24 @@
 """DDS backend: an rclpy-compatible layer over Eclipse Cyclone DDS speaking the ROS 2 wire format.
 
-This module doubles as the ``rclpy`` stand-in that :mod:`wildfire_msgs_py.runtime` exports:
+This module doubles as the ``rclpy`` stand-in that :mod:`wildfire_ros.runtime` exports:
 ``init``, ``shutdown``, ``try_shutdown``, ``ok``, ``spin``, ``spin_once`` and
 ``spin_until_future_complete`` behave like their rclpy namesakes on a process-wide context.
 Wire format as rmw_cyclonedds_cpp: DDS topic ``rt/<name>``, type ``<pkg>::msg::dds_::<Type>_``,
-XCDR1 CDR; QoS mapped like rmw_cyclonedds (see :mod:`wildfire_msgs_py.dds.qos`).
+XCDR1 CDR; QoS mapped like rmw_cyclonedds (see :mod:`wildfire_ros.dds.qos`).
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from wildfire_msgs_py.dds.arguments import remove_ros_args
-from wildfire_msgs_py.dds.context import Context, ExternalShutdownException, default_context
-from wildfire_msgs_py.dds.executor import SingleThreadedExecutor
+from wildfire_ros.dds.arguments import remove_ros_args
+from wildfire_ros.dds.context import Context, ExternalShutdownException, default_context
+from wildfire_ros.dds.executor import SingleThreadedExecutor
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
-    from wildfire_msgs_py.dds.node import Node
+    from wildfire_ros.dds.node import Node
 
 _global_executor: SingleThreadedExecutor | None = None
 

@@ -1,59 +1,41 @@
 """One import surface for node code on both backends.
 
-``WILDFIRE_ROS_BACKEND`` selects the backend when this module is first imported:
+``WILDFIRE_ROS_BACKEND`` selects the backend (:mod:`wildfire_msgs_py.messages` reads it once,
+so the codecs build the classes this runtime publishes):
 
 * ``rclpy`` — the real rclpy of ROS 2 Jazzy (the pip wheels ``ros-jazzy-rclpy`` or a sourced
   install), real rosidl message classes;
-* ``dds`` — :mod:`wildfire_msgs_py.dds`, our rclpy-compatible layer over Cyclone DDS;
+* ``dds`` — :mod:`wildfire_ros.dds`, our rclpy-compatible layer over Cyclone DDS;
 * ``auto`` (default) — rclpy when it imports, else dds.
 
 Node code imports everything from here and runs unchanged on both::
 
-    from wildfire_msgs_py.runtime import (
+    from wildfire_ros.runtime import (
         ExternalShutdownException, Node, QoSProfile, SingleThreadedExecutor, get_message, rclpy,
     )
     OccupancyGrid = get_message("nav_msgs/msg/OccupancyGrid")
 
-``make_executor()`` gives the executor nodes spin on and ``spin(executor)`` spins it until
-shutdown. ``serialize_message``/``deserialize_message`` convert to and from CDR bytes (as
+``qos_profile(spec)`` turns a contract QoS into the backend's profile, ``make_executor()``
+gives the executor nodes spin on and ``spin(executor)`` spins it until shutdown.
+``serialize_message``/``deserialize_message`` convert to and from CDR bytes (as
 ``rclpy.serialization``), ``PARAMETER_ERRORS`` lists the exceptions a bad parameter raises and
 ``INIT_ERRORS`` those of a command line ``rclpy.init`` refuses.
 """
 
 from __future__ import annotations
 
-import importlib
 import os
 from typing import TYPE_CHECKING, Any
 
-from wildfire_msgs_py.errors import BackendError, ParameterError, UnknownMessageTypeError
-from wildfire_msgs_py.network import apply_local_network_defaults
+from wildfire_msgs_py.contract import QosSpec
+from wildfire_msgs_py.errors import BackendError, ParameterError
+from wildfire_msgs_py.messages import BACKEND, get_message
+from wildfire_ros.network import apply_local_network_defaults
 
 # Before rclpy or Cyclone creates anything: loopback-only DDS unless the user chose otherwise.
 apply_local_network_defaults()
 
-_CHOICES = ("auto", "rclpy", "dds")
 _EXECUTORS = ("events", "single")
-
-
-def _choose_backend() -> str:
-    choice = os.environ.get("WILDFIRE_ROS_BACKEND", "auto").strip().lower() or "auto"
-    if choice not in _CHOICES:
-        raise BackendError(
-            f"WILDFIRE_ROS_BACKEND={choice!r}: expected one of {', '.join(_CHOICES)}"
-        )
-    if choice == "dds":
-        return "dds"
-    try:
-        importlib.import_module("rclpy")
-    except ImportError:
-        if choice == "rclpy":
-            raise BackendError(
-                "WILDFIRE_ROS_BACKEND=rclpy but rclpy does not import: source a ROS 2 Jazzy "
-                "install (setup.bash) or use WILDFIRE_ROS_BACKEND=dds"
-            ) from None
-        return "dds"
-    return "rclpy"
 
 
 def _choose_executor() -> str:
@@ -65,8 +47,6 @@ def _choose_executor() -> str:
     return choice
 
 
-#: The backend in use: ``"rclpy"`` or ``"dds"``.
-BACKEND = _choose_backend()
 #: rclpy's executor: ``"events"`` (``rclpy.experimental.EventsExecutor``) or ``"single"``.
 EXECUTOR = _choose_executor()
 
@@ -126,39 +106,21 @@ if BACKEND == "rclpy" and not TYPE_CHECKING:
         ParameterNotDeclaredException,
     )
 
-    def get_message(type_name: str) -> Any:
-        """The rosidl message class of ``pkg/msg/Type``.
-
-        Imported as ``<pkg>.msg`` directly: the pip wheels of ROS 2 Jazzy have no
-        rosidl_runtime_py.
-        """
-        from wildfire_msgs_py.dds.types import normalize_type_name
-
-        name = normalize_type_name(type_name)
-        package, _, message = name.partition("/msg/")
-        try:
-            return getattr(importlib.import_module(f"{package}.msg"), message)
-        except (AttributeError, ImportError, ValueError):
-            raise UnknownMessageTypeError(
-                f"message type {type_name!r} is not installed in this ROS 2 environment"
-            ) from None
-
 else:
-    from wildfire_msgs_py import dds as rclpy
-    from wildfire_msgs_py.dds.clock import Duration, Time
-    from wildfire_msgs_py.dds.context import ExternalShutdownException
-    from wildfire_msgs_py.dds.executor import SingleThreadedExecutor
-    from wildfire_msgs_py.dds.node import Node
-    from wildfire_msgs_py.dds.parameters import Parameter
-    from wildfire_msgs_py.dds.qos import (
+    from wildfire_msgs_py.types import deserialize as _deserialize
+    from wildfire_msgs_py.types import serialize as serialize_message
+    from wildfire_ros import dds as rclpy
+    from wildfire_ros.dds.clock import Duration, Time
+    from wildfire_ros.dds.context import ExternalShutdownException
+    from wildfire_ros.dds.executor import SingleThreadedExecutor
+    from wildfire_ros.dds.node import Node
+    from wildfire_ros.dds.parameters import Parameter
+    from wildfire_ros.dds.qos import (
         DurabilityPolicy,
         HistoryPolicy,
         QoSProfile,
         ReliabilityPolicy,
     )
-    from wildfire_msgs_py.dds.types import deserialize as _deserialize
-    from wildfire_msgs_py.dds.types import get_message
-    from wildfire_msgs_py.dds.types import serialize as serialize_message
 
     remove_ros_args = rclpy.remove_ros_args
 
@@ -179,6 +141,18 @@ else:
     def deserialize_message(serialized_message: bytes, message_type: Any) -> Any:
         """CDR bytes to a message (``rclpy.serialization.deserialize_message``)."""
         return _deserialize(serialized_message, message_type)
+
+
+def qos_profile(spec: QosSpec) -> Any:
+    """The ``QoSProfile`` of a contract QoS on the backend in use (always KEEP_LAST)."""
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=spec.depth,
+        reliability=ReliabilityPolicy.RELIABLE if spec.reliable else ReliabilityPolicy.BEST_EFFORT,
+        durability=(
+            DurabilityPolicy.TRANSIENT_LOCAL if spec.transient_local else DurabilityPolicy.VOLATILE
+        ),
+    )
 
 
 def spin(executor: Any, period_s: float = 0.1) -> None:
@@ -212,6 +186,7 @@ __all__ = [
     "deserialize_message",
     "get_message",
     "make_executor",
+    "qos_profile",
     "rclpy",
     "remove_ros_args",
     "rmw_implementation",

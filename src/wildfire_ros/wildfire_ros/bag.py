@@ -5,7 +5,7 @@ version 9 with ``ros_distro: jazzy``, the RIHS01 ``type_description_hash`` of ev
 (computed from the type description as Jazzy does, by the rosbags type store) and the offered
 QoS profiles of its publishers; MCAP channels with ``offered_qos_profiles`` and
 ``topic_type_hash`` metadata, ``ros2msg`` schemas, CDR payloads and per-channel sequence
-numbers. Chunks are zstd-compressed (:mod:`wildfire_msgs_py.mcap_writer`, preset
+numbers. Chunks are zstd-compressed (:mod:`wildfire_ros.mcap_writer`, preset
 ``zstd_fast``), so ``ros2 bag``, Foxglove, ``mcap`` and rosbags read them unchanged.
 
 Log times are receive times on the system clock, as ``ros2 bag record`` does by default, or
@@ -44,9 +44,9 @@ from ruamel.yaml import YAML
 
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.contract import spec_for
-from wildfire_msgs_py.dds.types import normalize_type_name, typestore
 from wildfire_msgs_py.errors import BagError, UnknownMessageTypeError
-from wildfire_msgs_py.mcap_writer import DEFAULT_PRESET, PRESETS, McapWriter
+from wildfire_msgs_py.types import normalize_type_name, typestore
+from wildfire_ros.mcap_writer import DEFAULT_PRESET, PRESETS, McapWriter
 
 if TYPE_CHECKING:
     from collections.abc import Iterable, Iterator, Mapping, Sequence
@@ -206,7 +206,7 @@ class _Topic:
 class BagWriter:
     """Writes raw CDR messages into a new rosbag2 MCAP directory.
 
-    ``compression`` is a preset of :data:`wildfire_msgs_py.mcap_writer.PRESETS`;
+    ``compression`` is a preset of :data:`wildfire_ros.mcap_writer.PRESETS`;
     ``chunk_period_s`` also closes a chunk that many seconds after its first message, so a
     killed recorder loses at most that much (see ``wildfire bag reindex``).
     """
@@ -392,7 +392,7 @@ class BagWriter:
 
 def offered_qos(node: Any, topic: str) -> list[QosSummary]:
     """One profile per current publisher of ``topic`` (depth from the contract when unknown)."""
-    from wildfire_msgs_py.runtime import BACKEND, DurabilityPolicy, ReliabilityPolicy
+    from wildfire_ros.runtime import BACKEND, DurabilityPolicy, ReliabilityPolicy
 
     spec = spec_for(topic)
     fallback_depth = spec.qos.depth if spec else 10
@@ -448,7 +448,7 @@ class BagRecorder:
         use_sim_time: bool = False,
         chunk_period_s: float = 1.0,
     ) -> None:
-        from wildfire_msgs_py.runtime import Node, get_message
+        from wildfire_ros.runtime import Node, get_message, qos_profile
 
         self.writer = BagWriter(
             output,
@@ -467,7 +467,7 @@ class BagRecorder:
                 get_message(contract.CLOCK.type),
                 contract.CLOCK.name,
                 self._clock_callback,
-                contract.CLOCK.qos.profile(),
+                qos_profile(contract.CLOCK.qos),
                 raw=True,
             )
         self.node.create_timer(discovery_period, self.discover_topics)
@@ -514,8 +514,8 @@ class BagRecorder:
             self.writer.write(topic, self.now_ns(), data)
 
     def _subscribe(self, topic: str, type_name: str) -> None:
-        from wildfire_msgs_py.graph import adapted_qos
-        from wildfire_msgs_py.runtime import get_message
+        from wildfire_ros.graph import adapted_qos
+        from wildfire_ros.runtime import get_message
 
         try:
             msg_type = get_message(type_name)
