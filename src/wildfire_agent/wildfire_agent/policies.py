@@ -15,10 +15,12 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import torch
+
+if TYPE_CHECKING:
+    import torch
 
 from wildfire_agent.approaches import APPROACHES
 from wildfire_agent.errors import AgentConfigError
@@ -45,6 +47,8 @@ class TorchScriptPolicy:
     def __init__(
         self, path: str | Path, threads: int | None = None, device: str | torch.device = "cpu"
     ) -> None:
+        import torch  # here, not at the top: rh and random agents never load torch
+
         path = Path(path)
         if not path.is_file():
             raise AgentConfigError(f"policy file {path}: no such file (expected a TorchScript .pt)")
@@ -92,6 +96,8 @@ def summed_q_values(
 ) -> torch.Tensor:
     """``sum_j Q(s_j, a)``, (B, 2) on the module's device, from images (B, C, H, W) and
     pairwise states (B, K, 5): the one place a Q-network is queried for actions."""
+    import torch
+
     if device is None:
         device = next(module.parameters()).device
     image_tensor = torch.from_numpy(np.ascontiguousarray(images, dtype=np.float32)).to(device)

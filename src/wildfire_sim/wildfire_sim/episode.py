@@ -18,12 +18,17 @@ simulator's parameters (``config/wildfire.yaml`` is tested to agree with it).
 from __future__ import annotations
 
 from enum import StrEnum
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from wildfire_sim.defaults import EPISODE_DEFAULTS, EpisodeDefaults
-from wildfire_sim.fire import BatchedFire, FireParams
 from wildfire_sim.shapes import Shape, shape_masks
+
+if TYPE_CHECKING:
+    # The fire model runs on torch: only the code that steps a fire loads it, so nodes that
+    # need just these rules (agents, the aggregator) start without importing torch.
+    from wildfire_sim.fire import BatchedFire, FireParams
 
 DECISIONS_PER_FIRE_STEP = 25
 """2.5 s fire steps at 10 Hz decisions."""
@@ -71,6 +76,8 @@ def initial_fire(
     seed: int, shape: Shape | str, wind: tuple[float, float] = (0.0, 0.0)
 ) -> BatchedFire:
     """The fire of episode ``seed`` at ignition (before the pre-burn), one environment."""
+    from wildfire_sim.fire import BatchedFire
+
     masks = shape_masks(Shape.parse(str(shape.value if isinstance(shape, Shape) else shape)))
     fire = BatchedFire(1)
     fire.reset([0], [seed], masks.ignition, masks.fuel, np.asarray(wind, dtype=np.float64))
@@ -97,6 +104,8 @@ class FireEpisode:
         self.max_decisions = int(max_decisions)
         self.border_cells = int(border_cells)
         masks = shape_masks(self.shape)
+        from wildfire_sim.fire import BatchedFire
+
         self.fire = BatchedFire(1, params)
         self.fire.reset([0], [self.seed], masks.ignition, masks.fuel, np.asarray(self.wind))
         self.ignition_burning = self.fire.burning[0].copy()
