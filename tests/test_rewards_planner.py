@@ -5,15 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wildfire_agent import pairwise
-from wildfire_agent.dynamics import AircraftState
+from wildfire_agent import pairwise, receding_horizon
+from wildfire_agent.dynamics import AircraftState, constant_bank_track, propagate
 from wildfire_agent.policy_names import planner_config
 from wildfire_agent.receding_horizon import plan, predict_constant_bank, score_sequences
 from wildfire_agent.rewards import (
     ObservationRewardWeights,
     fire_field_maps,
+    fire_term_table,
     fire_terms,
     observation_rewards,
+    tabled_fire_terms,
 )
 from wildfire_sim.seeding import Stream, generator
 
@@ -127,3 +129,54 @@ def test_paper_planner_plans_alone_and_ours_avoids_the_other_aircraft():
     # Each planner's plan is the better one under its own model of the other aircraft.
     assert score(ours, with_other) > score(paper, with_other)
     assert score(paper, alone) > score(ours, alone)
+
+
+def random_poses(rng: np.random.Generator, shape: tuple[int, ...]) -> AircraftState:
+    return AircraftState(
+        x_m=rng.uniform(-100.0, 1100.0, shape),
+        y_m=rng.uniform(-100.0, 1100.0, shape),
+        heading_rad=rng.uniform(-np.pi, np.pi, shape),
+        bank_steps=rng.integers(-10, 11, shape),
+    )
+
+
+def test_constant_bank_track_is_stepping_bit_for_bit():
+    rng = np.random.default_rng(3)
+    state = random_poses(rng, (3, 4))
+    state.bank_steps[0, 0] = 0  # wings level: the straight-line branch
+    x, y = constant_bank_track(state, 60)
+    for t in range(60):
+        state = propagate(state)
+        assert np.array_equal(x[..., t], state.x_m) and np.array_equal(y[..., t], state.y_m)
+
+
+def test_tabled_fire_terms_are_fire_terms_bit_for_bit():
+    rng = np.random.default_rng(4)
+    maps = fire_field_maps(rng.random((2, 100, 100)) < 0.3, with_clear_count=True)
+    weights = ObservationRewardWeights()
+    # On the map, exactly on its edges and corners, just off it and far off it.
+    x = np.concatenate([rng.uniform(-300, 1300, 4000), [0.0, 1000.0, 1000.0, -1e-9, 1000.0001]])
+    y = np.concatenate([rng.uniform(-300, 1300, 4000), [1000.0, 0.0, 1000.0, 500.0, 500.0]])
+    env = rng.integers(0, 2, x.shape)
+    tabled = tabled_fire_terms(fire_term_table(maps, weights), maps, env, x, y, weights)
+    assert np.array_equal(tabled, fire_terms(maps, env, x, y, weights))
+
+
+def test_each_flip_scores_as_the_flipped_sequence_flown_in_full():
+    """The planner scores a flip from the decision it changes on; the score must still be
+    the float of flying the whole flipped sequence, or plans would depend on the shortcut."""
+    rng = np.random.default_rng(5)
+    weights = ObservationRewardWeights()
+    maps = fire_field_maps(strip_fire(), weights)
+    own, others = random_poses(rng, (3,)), random_poses(rng, (3, 2))
+    env = np.zeros(3, dtype=np.int64)
+    others_xy = predict_constant_bank(others, 40)
+    actions = rng.integers(0, 2, (3, 40))
+    model = receding_horizon._model(own, env, maps, others_xy, weights)
+    flown = receding_horizon._fly(model, actions)
+    flips = receding_horizon._flip_scores(model, actions, flown)
+    for j in range(40):
+        flipped = actions.copy()
+        flipped[:, j] ^= 1
+        expected = score_sequences(flipped, own, env, maps, others_xy, weights)
+        assert np.array_equal(flips[:, j], expected)

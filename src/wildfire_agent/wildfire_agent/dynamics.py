@@ -69,23 +69,57 @@ def turn_rate(bank_rad: np.ndarray) -> np.ndarray:
     return GRAVITY_MPS2 * np.tan(bank_rad) / SPEED_MPS
 
 
+def _arc(
+    heading_rad: np.ndarray, new_heading_rad: np.ndarray, rate: np.ndarray, dt: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(dx, dy) of flying from ``heading_rad`` to ``new_heading_rad`` at heading ``rate``.
+
+    On an arc of radius v / rate: x += (v / rate)(sin(psi + rate dt) - sin(psi)), etc.;
+    wings level (rate 0): a straight line.
+    """
+    turning = rate != 0.0
+    safe_rate = np.where(turning, rate, 1.0)
+    arc_dx = SPEED_MPS / safe_rate * (np.sin(new_heading_rad) - np.sin(heading_rad))
+    arc_dy = SPEED_MPS / safe_rate * (np.cos(heading_rad) - np.cos(new_heading_rad))
+    line_dx = SPEED_MPS * dt * np.cos(heading_rad)
+    line_dy = SPEED_MPS * dt * np.sin(heading_rad)
+    return np.where(turning, arc_dx, line_dx), np.where(turning, arc_dy, line_dy)
+
+
 def propagate(state: AircraftState, dt: float = DECISION_PERIOD_S) -> AircraftState:
     """Fly every aircraft for ``dt`` seconds at constant bank, integrating the arc exactly."""
     rate = turn_rate(state.bank_rad)
-    turning = state.bank_steps != 0
     new_heading = state.heading_rad + rate * dt
-    # On an arc of radius v / rate: x += (v / rate)(sin(psi + rate dt) - sin(psi)), etc.
-    safe_rate = np.where(turning, rate, 1.0)
-    arc_dx = SPEED_MPS / safe_rate * (np.sin(new_heading) - np.sin(state.heading_rad))
-    arc_dy = SPEED_MPS / safe_rate * (np.cos(state.heading_rad) - np.cos(new_heading))
-    line_dx = SPEED_MPS * dt * np.cos(state.heading_rad)
-    line_dy = SPEED_MPS * dt * np.sin(state.heading_rad)
+    dx, dy = _arc(state.heading_rad, new_heading, rate, dt)
     return AircraftState(
-        x_m=state.x_m + np.where(turning, arc_dx, line_dx),
-        y_m=state.y_m + np.where(turning, arc_dy, line_dy),
+        x_m=state.x_m + dx,
+        y_m=state.y_m + dy,
         heading_rad=wrap_angle(new_heading),
         bank_steps=np.array(state.bank_steps, copy=True),
     )
+
+
+def constant_bank_track(state: AircraftState, steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """Positions (x, y), each (..., steps), after each of ``steps`` calls of :func:`propagate`.
+
+    The same floats as stepping, bit for bit: only the heading is stepped one decision at a
+    time (its wrap is sequential); the arcs are then computed for all steps at once and
+    summed in order (a cumulative sum adds exactly as repeated ``x + dx`` does).
+    """
+    rate = turn_rate(state.bank_rad)
+    before, after = [], []
+    heading = np.asarray(state.heading_rad, dtype=np.float64)
+    for _ in range(steps):
+        new_heading = heading + rate * DECISION_PERIOD_S
+        before.append(heading)
+        after.append(new_heading)
+        heading = wrap_angle(new_heading)
+    dx, dy = _arc(
+        np.stack(before, axis=-1), np.stack(after, axis=-1), rate[..., None], DECISION_PERIOD_S
+    )
+    x = np.cumsum(np.concatenate([np.asarray(state.x_m)[..., None], dx], axis=-1), axis=-1)
+    y = np.cumsum(np.concatenate([np.asarray(state.y_m)[..., None], dy], axis=-1), axis=-1)
+    return x[..., 1:], y[..., 1:]
 
 
 def step(state: AircraftState, action: np.ndarray) -> AircraftState:
@@ -126,6 +160,7 @@ __all__ = [
     "SPEED_MPS",
     "AircraftState",
     "apply_action",
+    "constant_bank_track",
     "propagate",
     "start_poses",
     "step",
