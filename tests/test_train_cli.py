@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import signal
 import subprocess
@@ -72,8 +73,11 @@ def test_train_smoke_writes_policy_curve_and_checkpoint(
     assert card["evaluation"]["episodes"] == 1
     for name in (CHECKPOINT_FILE, CURVE_CSV, CURVE_PNG, "replay.npz"):
         assert (run_dir / name).is_file(), name
-    rows = (run_dir / CURVE_CSV).read_text().splitlines()
-    assert rows[0].startswith("iteration,samples") and rows[1].startswith(f"{iterations},")
+    rows = list(csv.DictReader((run_dir / CURVE_CSV).read_text().splitlines()))
+    assert rows[0]["iteration"] == str(iterations)
+    # The value check has columns; these episodes are cut long before the discount fades, so
+    # no decision's return is known (validation.value_check, tested on its own).
+    assert rows[0]["q_predicted"] == rows[0]["q_collected"] == "nan"
 
 
 def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> None:

@@ -117,8 +117,21 @@ def greedy_actions(
     device: torch.device | None = None,
 ) -> np.ndarray:
     """``argmax_a sum_j Q(s_j, a)``, (B,) int64 (on a tie the first action, -5 degrees)."""
+    return greedy_actions_and_values(module, images, pair_states, channels_last, device)[0]
+
+
+def greedy_actions_and_values(
+    module: torch.nn.Module,
+    images: np.ndarray,
+    pair_states: np.ndarray,
+    channels_last: bool = False,
+    device: torch.device | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`greedy_actions` (B,) and the value ``max_a sum_j Q(s_j, a)`` (B,) float32 the
+    network gives each of them."""
     q = summed_q_values(module, images, pair_states, channels_last, device)
-    return q.argmax(dim=1).cpu().numpy().astype(np.int64)
+    actions = q.argmax(dim=1).cpu().numpy().astype(np.int64)
+    return actions, q.amax(dim=1).cpu().numpy()
 
 
 def save_policy_card(extra: dict[str, Any]) -> dict[str, str]:
@@ -132,6 +145,7 @@ __all__ = [
     "RandomPolicy",
     "TorchScriptPolicy",
     "greedy_actions",
+    "greedy_actions_and_values",
     "save_policy_card",
     "summed_q_values",
 ]

@@ -18,7 +18,7 @@ from torch import nn
 
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.pairwise import other_indices
-from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy, greedy_actions
+from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy, greedy_actions_and_values
 from wildfire_agent.policy_names import (
     BUILTIN_POLICIES,
     MODELS_DIR,
@@ -140,25 +140,28 @@ class GreedyController:
 
     (Deployment evaluates each ownship alone, see :class:`QNetworkController`; a batch may
     pick other kernels and so differ in the last bits — fine for a learning curve.)
+    ``greedy_q`` keeps, per decision, the (E, N) value the network gives the action it took.
     """
 
     def __init__(self, model: nn.Module, observation: str, channels_last: bool = False) -> None:
         self.model = model
         self.observation = observation
         self.channels_last = channels_last
+        self.greedy_q: list[np.ndarray] = []
 
     def reset(self, env: WildfireVecEnv) -> None:
-        pass
+        self.greedy_q = []
 
     def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
         images, states = observations["image"], observations["state"]
         e, n = images.shape[:2]
-        actions = greedy_actions(
+        actions, values = greedy_actions_and_values(
             self.model,
             images.reshape(e * n, *images.shape[2:]),
             states.reshape(e * n, *states.shape[2:]),
             self.channels_last,
         )
+        self.greedy_q.append(values.reshape(e, n))
         return actions.reshape(e, n)
 
 

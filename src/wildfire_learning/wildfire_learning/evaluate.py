@@ -30,7 +30,7 @@ import numpy as np
 
 from wildfire_belief.belief import belief_iou, mean_age_at_burning, score_ceiling
 from wildfire_learning.controllers import Controller
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
+from wildfire_learning.env import EnvConfig, StepResult, WildfireVecEnv
 
 VALIDATION_SEED_BASE = 1_000_000
 """First validation seed (training seeds stay below)."""
@@ -105,10 +105,12 @@ def evaluate(
     policy_name: str = "",
     record: bool = False,
     progress: Callable[[int, int], None] | None = None,
+    on_step: Callable[[np.ndarray, StepResult], None] | None = None,
 ) -> EvaluationSummary:
     """Fly ``controller`` on one episode per seed.
 
-    ``progress(done, total)`` is called after every decision with the decisions flown so far.
+    ``progress(done, total)`` is called after every decision with the decisions flown so far,
+    ``on_step(active, result)`` with each step's result and the episodes it stepped.
     """
     config = replace(config, observation=controller.observation)
     env = WildfireVecEnv(config, len(seeds))
@@ -126,7 +128,10 @@ def evaluate(
         actions = controller.act(env, observations)
         policy_seconds += time.perf_counter() - tic
         aircraft_decisions += int(active.sum()) * config.n_aircraft
-        observations = env.step(actions).observations
+        result = env.step(actions)
+        observations = result.observations
+        if on_step is not None:
+            on_step(active, result)
         # Visits of this decision saw the fire after its step: count what burned then.
         burned_in_flight |= env.truth.astype(bool) & active[:, None, None]
         if record:

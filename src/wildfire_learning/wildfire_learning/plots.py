@@ -30,6 +30,8 @@ CURVE_FIELDS = (
     "score_sem",
     "belief_iou_mean",
     "episodes",
+    "q_predicted",
+    "q_collected",
 )
 """Columns of the learning curve: one row per evaluation of a training run."""
 EXTENT = (0.0, MAP_SIZE_M, 0.0, MAP_SIZE_M)

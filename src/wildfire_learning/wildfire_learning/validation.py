@@ -8,11 +8,13 @@ the validation seeds, which nothing is trained on, pick it.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
+import numpy as np
 from torch import nn
 
 from wildfire_learning.controllers import GreedyController
+from wildfire_learning.env import StepResult
 from wildfire_learning.evaluate import EvaluationSummary, evaluate
 from wildfire_learning.export import export_policy
 from wildfire_learning.model_card import policy_card
@@ -23,14 +25,80 @@ if TYPE_CHECKING:  # dqn imports this module
     from wildfire_learning.progress import Session
 
 
-def evaluate_greedy(model: nn.Module, config: TrainConfig) -> EvaluationSummary:
-    """Evaluation score of the greedy network on the held-out evaluation seeds."""
+RETURN_TAIL_WEIGHT = 0.01
+"""A decision of an episode cut by the time limit counts in the value check only if the
+rewards beyond the cut would weigh less than this in its discounted return."""
+
+
+class ValueCheck(NamedTuple):
+    """What the network expects of its greedy decisions against what they collected."""
+
+    predicted: float
+    """Mean ``max_a Q`` over the checked decisions (the training targets' units)."""
+    collected: float
+    """Mean discounted return those decisions collected, scaled as the training targets."""
+    decisions: int
+    """Aircraft decisions checked."""
+
+
+def value_check(
+    greedy_q: list[np.ndarray],
+    rewards: list[np.ndarray],
+    active: list[np.ndarray],
+    terminated: np.ndarray,
+    gamma: float,
+    reward_scale: float,
+) -> ValueCheck:
+    """Compare each greedy decision's predicted value with the return that followed it.
+
+    ``greedy_q`` and ``rewards`` hold one (E, N) array per step, ``active`` one (E,) mask.
+    A return is known exactly where the fire ended the episode (nothing follows), and to
+    within ``RETURN_TAIL_WEIGHT`` up to that many discounted steps before a time-limit cut.
+    Over-estimation, a suspect when a learning curve falls, shows as predicted > collected.
+    """
+    q, reward = np.stack(greedy_q), reward_scale * np.stack(rewards)  # (T, E, N)
+    stepped = np.stack(active)  # (T, E)
+    returns = np.empty_like(reward)
+    running = np.zeros_like(reward[0])
+    for t in range(len(reward) - 1, -1, -1):  # finished episodes add zero rewards
+        running = reward[t] + gamma * running
+        returns[t] = running
+    tail = int(np.ceil(np.log(RETURN_TAIL_WEIGHT) / np.log(gamma)))
+    lengths = stepped.sum(axis=0)  # decisions of each episode
+    known = stepped & (
+        terminated[None, :] | (np.arange(len(reward))[:, None] < lengths[None, :] - tail)
+    )
+    mask = np.broadcast_to(known[..., None], q.shape)
+    return ValueCheck(
+        predicted=float(q[mask].mean()) if mask.any() else float("nan"),
+        collected=float(returns[mask].mean()) if mask.any() else float("nan"),
+        decisions=int(mask.sum()),
+    )
+
+
+def evaluate_greedy(model: nn.Module, config: TrainConfig) -> tuple[EvaluationSummary, ValueCheck]:
+    """Evaluation score of the greedy network on the held-out evaluation seeds, and how its
+    values compare with the returns its decisions collected there."""
+    rewards: list[np.ndarray] = []
+    active: list[np.ndarray] = []
+
+    def keep(stepped: np.ndarray, result: StepResult) -> None:
+        active.append(stepped.copy())
+        rewards.append(result.rewards.copy())
+
     model.eval()
     try:
         controller = GreedyController(model, config.approach, config.channels_last)
-        return evaluate(controller, config.eval_env_config(), config.eval_seeds(), "greedy")
+        summary = evaluate(
+            controller, config.eval_env_config(), config.eval_seeds(), "greedy", on_step=keep
+        )
     finally:
         model.train()
+    terminated = np.array([episode.terminated for episode in summary.episodes])
+    check = value_check(
+        controller.greedy_q, rewards, active, terminated, config.gamma, config.reward_scale
+    )
+    return summary, check
 
 
 def evaluate_and_export(
@@ -46,7 +114,8 @@ def evaluate_and_export(
     # matplotlib loads with the first curve drawn, not with `wildfire train --help`.
     from wildfire_learning.plots import write_curve
 
-    summary = evaluate_greedy(q_network, config).to_json()
+    evaluation, values = evaluate_greedy(q_network, config)
+    summary = evaluation.to_json()
     state.wall_time_s = session.wall_time_s()
     state.curve.append(
         {
@@ -58,6 +127,8 @@ def evaluate_and_export(
             "score_sem": float(summary["score_sem"]),
             "belief_iou_mean": float(summary["belief_iou_mean"]),
             "episodes": int(summary["episodes"]),
+            "q_predicted": round(values.predicted, 4),
+            "q_collected": round(values.collected, 4),
         }
     )
     write_curve(options.run_dir, state.curve, options.baseline_score, f"{config.approach} DQN")
@@ -67,4 +138,10 @@ def evaluate_and_export(
         export_policy(q_network, options.out.with_name("best_" + options.out.name), card)
 
 
-__all__ = ["evaluate_and_export", "evaluate_greedy"]
+__all__ = [
+    "RETURN_TAIL_WEIGHT",
+    "ValueCheck",
+    "evaluate_and_export",
+    "evaluate_greedy",
+    "value_check",
+]
