@@ -72,7 +72,7 @@ def turn_rate(bank_rad: np.ndarray) -> np.ndarray:
 def _arc(
     heading_rad: np.ndarray, new_heading_rad: np.ndarray, rate: np.ndarray, dt: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(dx, dy) of flying from ``heading_rad`` to ``new_heading_rad`` at heading ``rate``.
+    """(dx, dy) of flying from ``heading_rad`` to ``new_heading_rad`` at turn rate ``rate``.
 
     On an arc of radius v / rate: x += (v / rate)(sin(psi + rate dt) - sin(psi)), etc.;
     wings level (rate 0): a straight line.
