@@ -179,7 +179,6 @@ def _step_rewards(
 class _Flown(NamedTuple):
     """Per-decision pieces of a batch of sequences, (N, T) each."""
 
-    levels: np.ndarray
     dx: np.ndarray
     dy: np.ndarray
     reward: np.ndarray
@@ -196,7 +195,7 @@ def _fly(model: _Model, actions: np.ndarray) -> _Flown:
     y = own.y_m + np.cumsum(dy, axis=-1)
     reward = _step_rewards(model, levels, x, y, slice(None))
     # A sequential sum (cumsum), so the total never depends on the batch's memory layout.
-    return _Flown(levels, dx, dy, reward, np.cumsum(reward, axis=-1)[:, -1])
+    return _Flown(dx, dy, reward, np.cumsum(reward, axis=-1)[:, -1])
 
 
 @functools.lru_cache(maxsize=4)
