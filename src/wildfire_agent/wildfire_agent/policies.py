@@ -131,7 +131,7 @@ def greedy_actions_and_values(
     network gives each of them."""
     q = summed_q_values(module, images, pair_states, channels_last, device)
     actions = q.argmax(dim=1).cpu().numpy().astype(np.int64)
-    return actions, q.amax(dim=1).cpu().numpy()
+    return actions, q.amax(dim=1).detach().cpu().numpy()
 
 
 def save_policy_card(extra: dict[str, Any]) -> dict[str, str]:
