@@ -78,6 +78,7 @@ def test_train_smoke_writes_policy_curve_and_checkpoint(
     # The value check has columns; these episodes are cut long before the discount fades, so
     # no decision's return is known (validation.value_check, tested on its own).
     assert rows[0]["q_predicted"] == rows[0]["q_collected"] == "nan"
+    assert float(rows[0]["reward_mean"]) == float(rows[0]["reward_mean"])  # a number, not nan
 
 
 def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wildfire_learning.validation import value_check
+from wildfire_learning.validation import mean_reward, value_check
 
 
 def steps(values: list[float]) -> list[np.ndarray]:
@@ -42,3 +42,11 @@ def test_a_time_limit_cut_drops_decisions_whose_return_is_unknown() -> None:
     assert check.decisions == 3
     assert check.predicted == pytest.approx(1.0)
     assert 1.99 < check.collected < 2.0
+
+
+def test_mean_reward_counts_the_decisions_of_stepped_episodes_only() -> None:
+    # Two episodes of two aircraft; the second stops after the first step, and its later
+    # (zero) rewards must not dilute the mean.
+    rewards = [np.array([[1.0, 3.0], [5.0, 7.0]]), np.array([[2.0, 2.0], [0.0, 0.0]])]
+    active = [np.array([True, True]), np.array([True, False])]
+    assert mean_reward(rewards, active) == pytest.approx((1 + 3 + 5 + 7 + 2 + 2) / 6)

@@ -32,6 +32,7 @@ CURVE_FIELDS = (
     "episodes",
     "q_predicted",
     "q_collected",
+    "reward_mean",
 )
 """Columns of the learning curve: one row per evaluation of a training run."""
 EXTENT = (0.0, MAP_SIZE_M, 0.0, MAP_SIZE_M)

@@ -76,9 +76,25 @@ def value_check(
     )
 
 
-def evaluate_greedy(model: nn.Module, config: TrainConfig) -> tuple[EvaluationSummary, ValueCheck]:
-    """Evaluation score of the greedy network on the held-out evaluation seeds, and how its
-    values compare with the returns its decisions collected there."""
+def mean_reward(rewards: list[np.ndarray], active: list[np.ndarray]) -> float:
+    """Mean training reward per aircraft decision of the stepped episodes.
+
+    ``rewards`` holds one (E, N) array per step, ``active`` one (E,) mask of the episodes
+    that step flew. The reward is the approach's own (unscaled): for the observation approach
+    it is what the network learns to maximise, not the score, so a learning curve whose score
+    falls while this keeps rising points at the reward, not at the learning.
+    """
+    reward, stepped = np.stack(rewards), np.stack(active)  # (T, E, N), (T, E)
+    decisions = int(stepped.sum()) * reward.shape[2]
+    return float(reward[stepped].sum() / decisions) if decisions else float("nan")
+
+
+def evaluate_greedy(
+    model: nn.Module, config: TrainConfig
+) -> tuple[EvaluationSummary, ValueCheck, float]:
+    """Evaluation score of the greedy network on the held-out evaluation seeds, how its
+    values compare with the returns its decisions collected there, and the mean training
+    reward per aircraft decision it collected (:func:`mean_reward`)."""
     rewards: list[np.ndarray] = []
     active: list[np.ndarray] = []
 
@@ -98,7 +114,7 @@ def evaluate_greedy(model: nn.Module, config: TrainConfig) -> tuple[EvaluationSu
     check = value_check(
         controller.greedy_q, rewards, active, terminated, config.gamma, config.reward_scale
     )
-    return summary, check
+    return summary, check, mean_reward(rewards, active)
 
 
 def evaluate_and_export(
@@ -114,7 +130,7 @@ def evaluate_and_export(
     # matplotlib loads with the first curve drawn, not with `wildfire train --help`.
     from wildfire_learning.plots import write_curve
 
-    evaluation, values = evaluate_greedy(q_network, config)
+    evaluation, values, reward = evaluate_greedy(q_network, config)
     summary = evaluation.to_json()
     state.wall_time_s = session.wall_time_s()
     state.curve.append(
@@ -129,6 +145,7 @@ def evaluate_and_export(
             "episodes": int(summary["episodes"]),
             "q_predicted": round(values.predicted, 4),
             "q_collected": round(values.collected, 4),
+            "reward_mean": round(reward, 5),
         }
     )
     write_curve(options.run_dir, state.curve, options.baseline_score, f"{config.approach} DQN")
@@ -143,5 +160,6 @@ __all__ = [
     "ValueCheck",
     "evaluate_and_export",
     "evaluate_greedy",
+    "mean_reward",
     "value_check",
 ]
