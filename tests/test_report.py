@@ -126,6 +126,7 @@ def test_ratios_to_both_baselines_and_the_papers_to_rh_paper() -> None:
         (["--scenarios", "circular:0"], "expected SHAPE:N"),
         (["--controllers", "genius"], "unknown policy 'genius'"),
         (["--max-wind", "2"], "--max-wind"),
+        (["--curves", "no-such-run"], "--curves no-such-run"),
     ],
 )
 def test_bad_input_is_one_line_with_status_2(tmp_path: Path, args: list[str], needle: str) -> None:
@@ -153,3 +154,25 @@ def test_two_policies_of_one_name_are_refused(tmp_path: Path) -> None:
 def test_scenario_keys_match_the_model_cards() -> None:
     assert Scenario.parse("T:3").key == "t_3aircraft"
     assert Scenario.parse("circular:2").title == "circular, 2 aircraft"
+
+
+def test_curves_are_the_mean_and_spread_across_runs(tmp_path: Path) -> None:
+    # Two seeds' curves; only the iterations both evaluated at are drawn.
+    header = "iteration,score_mean,score_sem,reward_mean\n"
+    for name, rows in (
+        ("seed1", "1000,100,9,-0.5\n2000,300,9,-0.4\n"),
+        ("seed2", "2000,500,9,-0.2\n"),
+    ):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "learning_curve.csv").write_text(header + rows)
+    done = report(
+        *("--curves", str(tmp_path / "seed1"), str(tmp_path / "seed2"), "--baseline", "350"),
+        *("--out", str(tmp_path / "out"), "--json"),
+    )
+    assert done.returncode == 0, done.stderr
+    (row,) = json.loads(done.stdout)["curve"]
+    assert row["iteration"] == 2000 and row["runs"] == 2
+    # Mean 400; sample standard deviation 141.4 over sqrt(2) runs: s.e. 100.
+    assert row["score_mean"] == pytest.approx(400) and row["score_sem"] == pytest.approx(100)
+    assert row["reward_mean"] == pytest.approx(-0.3) and row["reward_sem"] == pytest.approx(0.1)
+    assert (tmp_path / "out" / "learning_curves.png").stat().st_size > 0

@@ -21,6 +21,8 @@ from wildfire_sim.grid import MAP_SIZE_M
 
 CURVE_CSV = "learning_curve.csv"
 CURVE_PNG = "learning_curve.png"
+SEED_CURVES_CSV = "learning_curves.csv"
+SEED_CURVES_PNG = "learning_curves.png"
 CURVE_FIELDS = (
     "iteration",
     "samples",
@@ -35,6 +37,8 @@ CURVE_FIELDS = (
     "reward_mean",
 )
 """Columns of the learning curve: one row per evaluation of a training run."""
+SEED_CURVE_FIELDS = ("iteration", "runs", "score_mean", "score_sem", "reward_mean", "reward_sem")
+"""Columns of a learning curve over several runs: means and standard errors across runs."""
 EXTENT = (0.0, MAP_SIZE_M, 0.0, MAP_SIZE_M)
 # 0 unburnt, 1 burnt out, 2 burning.
 FIRE_COLOURS = ListedColormap(["#f4f1e8", "#5b5b5b", "#e8491d"])
@@ -146,13 +150,99 @@ def write_curve(
         plot_learning_curve(rows, baseline, title, run_dir / CURVE_PNG)
 
 
+def read_curve(path: Path) -> list[dict[str, float]]:
+    """The rows of a ``CURVE_CSV`` as numbers (a column an older run lacks reads as nan)."""
+    with open(path, newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    return [
+        {k: float(v) if v not in ("", None) else float("nan") for k, v in r.items()} for r in rows
+    ]
+
+
+def _mean_and_sem(values: np.ndarray) -> tuple[float, float]:
+    """Mean over runs and its standard error (nan for a single run, which has no spread)."""
+    sem = float(values.std(ddof=1) / np.sqrt(len(values))) if len(values) > 1 else float("nan")
+    return float(values.mean()), sem
+
+
+def seed_curve(curves: Sequence[Sequence[dict[str, float]]]) -> list[dict[str, float]]:
+    """Mean +- standard error across runs (e.g. training seeds) of the validation score and
+    of ``reward_mean``, at each iteration every run evaluated at.
+
+    The error is the spread between runs, not the episodes' standard error within one: it is
+    what says whether a curve's shape belongs to the recipe or to one seed.
+    """
+    shared = sorted(set.intersection(*({r["iteration"] for r in c} for c in curves)))
+    rows = []
+    for iteration in shared:
+        at = [next(r for r in c if r["iteration"] == iteration) for c in curves]
+        score, score_sem = _mean_and_sem(np.array([r["score_mean"] for r in at]))
+        reward, reward_sem = _mean_and_sem(np.array([r.get("reward_mean", np.nan) for r in at]))
+        rows.append(
+            {
+                "iteration": iteration,
+                "runs": len(at),
+                "score_mean": score,
+                "score_sem": score_sem,
+                "reward_mean": reward,
+                "reward_sem": reward_sem,
+            }
+        )
+    return rows
+
+
+def write_seed_curves(
+    curves: Sequence[Sequence[dict[str, float]]],
+    labels: Sequence[str],
+    baseline: float | None,
+    out_dir: Path,
+) -> list[dict[str, float]]:
+    """``SEED_CURVES_CSV`` (:func:`seed_curve`) and ``SEED_CURVES_PNG`` in ``out_dir``: the
+    mean +- s.e. over runs, each run thin behind it, and the training reward below."""
+    rows = seed_curve(curves)
+    with open(out_dir / SEED_CURVES_CSV, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=SEED_CURVE_FIELDS)
+        writer.writeheader()
+        writer.writerows(rows)
+    fig, (ax_score, ax_reward) = plt.subplots(
+        2, 1, figsize=(6, 6), sharex=True, gridspec_kw={"height_ratios": [2, 1]}
+    )
+    for curve, label in zip(curves, labels, strict=True):
+        x = np.array([r["iteration"] for r in curve]) / 1000.0
+        ax_score.plot(x, [r["score_mean"] for r in curve], lw=0.8, alpha=0.5, label=label)
+        ax_reward.plot(x, [r.get("reward_mean", np.nan) for r in curve], lw=0.8, alpha=0.5)
+    if rows:
+        x = np.array([r["iteration"] for r in rows]) / 1000.0
+        for ax, key in ((ax_score, "score"), (ax_reward, "reward")):
+            mean = np.array([r[f"{key}_mean"] for r in rows])
+            sem = np.nan_to_num(np.array([r[f"{key}_sem"] for r in rows]))
+            ax.plot(x, mean, color="black", marker="o", ms=3, label=f"mean of {len(curves)}")
+            ax.fill_between(x, mean - sem, mean + sem, color="black", alpha=0.15)
+    if baseline is not None:
+        ax_score.axhline(baseline, ls="--", color="grey", label="receding horizon")
+    ax_score.set_ylabel("Average Reward Accumulated")
+    ax_score.legend(loc="best", fontsize=8)
+    ax_reward.set_ylabel("training reward\nper decision")
+    ax_reward.set_xlabel("Thousands of Training Iterations")
+    fig.tight_layout()
+    fig.savefig(out_dir / SEED_CURVES_PNG, dpi=110)
+    plt.close(fig)
+    return rows
+
+
 __all__ = [
     "CURVE_CSV",
     "CURVE_FIELDS",
     "CURVE_PNG",
+    "SEED_CURVES_CSV",
+    "SEED_CURVES_PNG",
+    "SEED_CURVE_FIELDS",
     "fire_state_image",
     "plot_episode",
     "plot_fire_propagation",
     "plot_learning_curve",
+    "read_curve",
+    "seed_curve",
     "write_curve",
+    "write_seed_curves",
 ]

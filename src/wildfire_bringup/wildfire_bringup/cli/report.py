@@ -26,6 +26,13 @@ from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, EvaluationSummary, evaluate
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
+from wildfire_learning.plots import (
+    CURVE_CSV,
+    SEED_CURVES_CSV,
+    SEED_CURVES_PNG,
+    read_curve,
+    write_seed_curves,
+)
 from wildfire_learning.report import (
     PAPER_SCENARIOS,
     Scenario,
@@ -88,6 +95,21 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "--fresh", action="store_true", help="evaluate again even where a stored result matches"
     )
     add_parallel_arguments(parser)
+    parser.add_argument(
+        "--curves",
+        nargs="+",
+        type=Path,
+        metavar="RUN",
+        help="evaluate nothing: draw the learning curves of training runs (run directories or "
+        f"their {CURVE_CSV}, e.g. one per seed) as mean +- s.e. across the runs, into "
+        f"DIR/{SEED_CURVES_CSV} and DIR/{SEED_CURVES_PNG}",
+    )
+    parser.add_argument(
+        "--baseline",
+        type=float,
+        metavar="SCORE",
+        help="with --curves: the receding horizon's validation score, drawn dashed",
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
 
@@ -177,15 +199,61 @@ def collect_results(
     return ordered, evaluated
 
 
-def run(args: argparse.Namespace) -> int:
-    scenarios = list(dict.fromkeys(Scenario.parse(text) for text in args.scenarios))
-    controllers = check_controllers(args.controllers)
-    out_dir: Path = args.out
+def output_dir(out_dir: Path) -> Path:
+    """``--out``, made if missing; a one-line error if it cannot hold the report."""
     if out_dir.exists() and not out_dir.is_dir():
         raise UserError(f"--out {out_dir}: exists and is not a directory")
     out_dir.mkdir(parents=True, exist_ok=True)
     if not os.access(out_dir, os.W_OK):
         raise UserError(f"--out {out_dir}: not writable")
+    return out_dir
+
+
+def load_curves(runs: list[Path]) -> list[list[dict[str, float]]]:
+    """The learning curve of each ``--curves`` run, or a one-line error naming the run."""
+    curves = []
+    for run in runs:
+        path = run / CURVE_CSV if run.is_dir() else run
+        try:
+            curve = read_curve(path)
+        except (OSError, ValueError, UnicodeDecodeError) as error:
+            raise UserError(
+                f"--curves {run}: expected a training run's {CURVE_CSV} ({error})"
+            ) from None
+        if not curve or not {"iteration", "score_mean"} <= curve[0].keys():
+            raise UserError(f"--curves {run}: expected a training run's {CURVE_CSV} with rows")
+        curves.append(curve)
+    return curves
+
+
+def run_curves(args: argparse.Namespace) -> int:
+    """``--curves``: mean +- s.e. across training runs, evaluating nothing."""
+    curves = load_curves(args.curves)
+    out_dir = output_dir(args.out)
+    labels = [str(run.name if run.is_dir() else run.parent.name) for run in args.curves]
+    rows = write_seed_curves(curves, labels, args.baseline, out_dir)
+    files = [str(out_dir / SEED_CURVES_CSV), str(out_dir / SEED_CURVES_PNG)]
+    if args.json:
+        # A single run has no spread: null, not NaN (which is no JSON).
+        curve = [{k: None if v != v else v for k, v in row.items()} for row in rows]
+        print_json({"runs": labels, "curve": curve, "files": files})
+    else:
+        for row in rows:
+            print(
+                f"iteration {row['iteration']:.0f}: score {row['score_mean']:.1f} +- "
+                f"{row['score_sem']:.1f}, training reward {row['reward_mean']:.4f} +- "
+                f"{row['reward_sem']:.4f} ({row['runs']:.0f} runs)"
+            )
+        print("wrote " + ", ".join(files))
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.curves:
+        return run_curves(args)
+    scenarios = list(dict.fromkeys(Scenario.parse(text) for text in args.scenarios))
+    controllers = check_controllers(args.controllers)
+    out_dir = output_dir(args.out)
     base = EnvConfig(max_duration_s=args.duration)
     if args.max_wind is not None:
         base = replace(base, max_wind=args.max_wind)
