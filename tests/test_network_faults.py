@@ -194,14 +194,18 @@ def test_lockstep_partition_resumes_and_equals_eval(backend: str, tmp_path: Path
     from wildfire_learning.evaluate import evaluate
 
     require_backend(backend, own_pass_only=True)
-    n, seed, duration = 2, 5, 15.0
+    # The cut starts half a second after the first tick: a lockstep run flies as fast as the
+    # machine allows (15 simulated seconds took under 2 s on a quiet machine), so a later
+    # start could fall after the last tick, and the run would never see its cut.
+    n, seed, duration = 2, 5, 40.0
     args = ["--aircraft", str(n), "--policy", "rh", "--seed", str(seed), "--fast"]
     args += ["--duration", str(duration), "--wind", "0.3,-0.2", "--hosts", "4"]
-    args += ["--partition", "2:2:6", "--log-dir", str(tmp_path / "logs")]
+    args += ["--partition", "2:0.5:4", "--log-dir", str(tmp_path / "logs")]
     summary, stderr = _run(args, backend)
 
     [cut] = summary["network_faults"]["partitions"]  # type: ignore[index]
-    assert cut["unreachable_nodes"] == ["uav0"] and cut["healed_at_s"] is not None
+    assert cut["cut_at_s"] is not None and cut["healed_at_s"] is not None
+    assert cut["unreachable_nodes"] == ["uav0"]
     assert cut["heard_again_after_heal_s"]["uav0"] is not None, stderr
 
     config = EnvConfig(
