@@ -31,6 +31,7 @@ import numpy as np
 from wildfire_belief.belief import belief_iou, mean_age_at_burning, score_ceiling
 from wildfire_learning.controllers import Controller
 from wildfire_learning.env import EnvConfig, StepResult, WildfireVecEnv
+from wildfire_learning.summary_stats import standard_error
 
 VALIDATION_SEED_BASE = 1_000_000
 """First validation seed (training seeds stay below)."""
@@ -78,14 +79,13 @@ class EvaluationSummary:
 
     def to_json(self) -> dict[str, Any]:
         scores = self.scores
-        sem = float(scores.std(ddof=1) / np.sqrt(scores.size)) if scores.size > 1 else 0.0
         return {
             "policy": self.policy,
             "episodes": len(self.episodes),
             "seeds": [e.seed for e in self.episodes],
             "scores": scores.tolist(),
             "score_mean": float(scores.mean()),
-            "score_sem": sem,
+            "score_sem": standard_error(scores),
             "flight_time_s": [e.decisions / 10.0 for e in self.episodes],
             "winds": [list(e.wind) for e in self.episodes],
             "belief_iou_mean": float(np.mean([e.belief_iou for e in self.episodes])),

@@ -17,6 +17,7 @@ from matplotlib.axes import Axes
 from matplotlib.colors import ListedColormap
 from matplotlib.image import AxesImage
 
+from wildfire_learning.summary_stats import standard_error
 from wildfire_sim.grid import MAP_SIZE_M
 
 CURVE_CSV = "learning_curve.csv"
@@ -159,12 +160,6 @@ def read_curve(path: Path) -> list[dict[str, float]]:
     ]
 
 
-def _mean_and_sem(values: np.ndarray) -> tuple[float, float]:
-    """Mean over runs and its standard error (nan for a single run, which has no spread)."""
-    sem = float(values.std(ddof=1) / np.sqrt(len(values))) if len(values) > 1 else float("nan")
-    return float(values.mean()), sem
-
-
 def seed_curve(curves: Sequence[Sequence[dict[str, float]]]) -> list[dict[str, float]]:
     """Mean +- standard error across runs (e.g. training seeds) of the validation score and
     of ``reward_mean``, at each iteration every run evaluated at.
@@ -172,20 +167,21 @@ def seed_curve(curves: Sequence[Sequence[dict[str, float]]]) -> list[dict[str, f
     The error is the spread between runs, not the episodes' standard error within one: it is
     what says whether a curve's shape belongs to the recipe or to one seed.
     """
-    shared = sorted(set.intersection(*({r["iteration"] for r in c} for c in curves)))
+    by_iteration = [{r["iteration"]: r for r in curve} for curve in curves]
+    shared = sorted(set.intersection(*(set(run) for run in by_iteration)))
     rows = []
     for iteration in shared:
-        at = [next(r for r in c if r["iteration"] == iteration) for c in curves]
-        score, score_sem = _mean_and_sem(np.array([r["score_mean"] for r in at]))
-        reward, reward_sem = _mean_and_sem(np.array([r.get("reward_mean", np.nan) for r in at]))
+        at = [run[iteration] for run in by_iteration]
+        scores = np.array([r["score_mean"] for r in at])
+        rewards = np.array([r.get("reward_mean", np.nan) for r in at])
         rows.append(
             {
                 "iteration": iteration,
-                "runs": len(at),
-                "score_mean": score,
-                "score_sem": score_sem,
-                "reward_mean": reward,
-                "reward_sem": reward_sem,
+                "runs": len(curves),
+                "score_mean": float(scores.mean()),
+                "score_sem": standard_error(scores),
+                "reward_mean": float(rewards.mean()),
+                "reward_sem": standard_error(rewards),
             }
         )
     return rows
@@ -215,7 +211,7 @@ def write_seed_curves(
         x = np.array([r["iteration"] for r in rows]) / 1000.0
         for ax, key in ((ax_score, "score"), (ax_reward, "reward")):
             mean = np.array([r[f"{key}_mean"] for r in rows])
-            sem = np.nan_to_num(np.array([r[f"{key}_sem"] for r in rows]))
+            sem = np.array([r[f"{key}_sem"] for r in rows])
             ax.plot(x, mean, color="black", marker="o", ms=3, label=f"mean of {len(curves)}")
             ax.fill_between(x, mean - sem, mean + sem, color="black", alpha=0.15)
     if baseline is not None:

@@ -28,6 +28,7 @@ import numpy as np
 
 from wildfire_agent.approaches import APPROACHES
 from wildfire_learning.errors import LearningError
+from wildfire_learning.summary_stats import standard_error
 from wildfire_sim.shapes import Shape
 
 CONTROLLER_LABELS = {
@@ -164,10 +165,8 @@ def paired_ratio(
     if baseline is None:
         return None, None
     base_scores = np.array(baseline["scores"])
-    difference = scores - base_scores
-    spread = difference.std(ddof=1) if difference.size > 1 else 0.0
     mean = base_scores.mean()
-    return float(scores.mean() / mean), float(spread / np.sqrt(difference.size) / mean)
+    return float(scores.mean() / mean), standard_error(scores - base_scores) / float(mean)
 
 
 def table_cells(

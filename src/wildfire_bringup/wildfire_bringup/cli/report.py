@@ -230,11 +230,11 @@ def run_curves(args: argparse.Namespace) -> int:
     """``--curves``: mean +- s.e. across training runs, evaluating nothing."""
     curves = load_curves(args.curves)
     out_dir = output_dir(args.out)
-    labels = [str(run.name if run.is_dir() else run.parent.name) for run in args.curves]
+    labels = [run.name if run.is_dir() else run.parent.name for run in args.curves]
     rows = write_seed_curves(curves, labels, args.baseline, out_dir)
     files = [str(out_dir / SEED_CURVES_CSV), str(out_dir / SEED_CURVES_PNG)]
     if args.json:
-        # A single run has no spread: null, not NaN (which is no JSON).
+        # A column older runs lack averages to NaN, which is no JSON: null instead.
         curve = [{k: None if v != v else v for k, v in row.items()} for row in rows]
         print_json({"runs": labels, "curve": curve, "files": files})
     else:
