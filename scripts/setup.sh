@@ -41,5 +41,8 @@ fi
 pkgs=()
 for pkg in src/*/; do pkgs+=(-e "$pkg"); done
 pip_install --no-deps "${pkgs[@]}"
+# Compile the planner's kernels once here (numba caches them beside their source), not in
+# the first few agent nodes that would each pay seconds of compilation at start-up.
+.venv/bin/python -c 'from wildfire_agent.planner_compiled import compile_kernels; compile_kernels()'
 echo "$want" > "$stamp"
 echo "setup: done (.venv/bin/wildfire)"

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 
-from wildfire_agent import pairwise, receding_horizon
+from wildfire_agent import pairwise, planner_reference
 from wildfire_agent.dynamics import AircraftState, constant_bank_track, propagate
+from wildfire_agent.planner_reference import plan_model, score_sequences
 from wildfire_agent.policy_names import planner_config
-from wildfire_agent.receding_horizon import plan, predict_constant_bank, score_sequences
+from wildfire_agent.receding_horizon import plan
 from wildfire_agent.rewards import (
     ObservationRewardWeights,
     fire_field_maps,
@@ -120,11 +123,12 @@ def test_paper_planner_plans_alone_and_ours_avoids_the_other_aircraft():
     weights = ObservationRewardWeights()
     maps = fire_field_maps(strip_fire(), weights, with_clear_count=True)
     env = np.zeros(1, dtype=np.int64)
-    with_other = predict_constant_bank(close, paper.size)
+    with_other = constant_bank_track(close, paper.size)
     alone = (np.zeros((1, 0, paper.size)), np.zeros((1, 0, paper.size)))
 
     def score(sequence: np.ndarray, others_xy: tuple[np.ndarray, np.ndarray]) -> float:
-        return float(score_sequences(sequence[None], own, env, maps, others_xy, weights)[0])
+        model = plan_model(own, env, maps, others_xy, weights)
+        return float(score_sequences(model, sequence[None])[0])
 
     # Each planner's plan is the better one under its own model of the other aircraft.
     assert score(ours, with_other) > score(paper, with_other)
@@ -170,13 +174,98 @@ def test_each_flip_scores_as_the_flipped_sequence_flown_in_full():
     maps = fire_field_maps(strip_fire(), weights)
     own, others = random_poses(rng, (3,)), random_poses(rng, (3, 2))
     env = np.zeros(3, dtype=np.int64)
-    others_xy = predict_constant_bank(others, 40)
+    others_xy = constant_bank_track(others, 40)
     actions = rng.integers(0, 2, (3, 40))
-    model = receding_horizon._model(own, env, maps, others_xy, weights)
-    flown = receding_horizon._fly(model, actions)
-    flips = receding_horizon._flip_scores(model, actions, flown)
+    model = plan_model(own, env, maps, others_xy, weights)
+    flips = planner_reference.flip_scores(model, actions)
     for j in range(40):
         flipped = actions.copy()
         flipped[:, j] ^= 1
-        expected = score_sequences(flipped, own, env, maps, others_xy, weights)
-        assert np.array_equal(flips[:, j], expected)
+        assert np.array_equal(flips[:, j], score_sequences(model, flipped))
+
+
+def planning_problem(
+    rng: np.random.Generator, rows: int, others: int, horizon: int = 60
+) -> tuple[planner_reference.PlanModel, np.ndarray]:
+    """Random poses (some off the map) around a random fire, random sequences: one row each."""
+    weights = ObservationRewardWeights()
+    burning = np.zeros((2, 100, 100), dtype=bool)
+    burning[:, 30:70, 35:65] = rng.random((2, 40, 30)) < 0.5
+    maps = fire_field_maps(burning, weights)
+    own = random_poses(rng, (rows,))
+    others_xy = constant_bank_track(random_poses(rng, (rows, others)), horizon)
+    model = plan_model(own, rng.integers(0, 2, rows), maps, others_xy, weights)
+    return model, rng.integers(0, 2, (rows, horizon))
+
+
+@pytest.mark.parametrize("others", [0, 1, 3])
+def test_compiled_search_equals_the_reference_float_for_float(others):
+    from wildfire_agent import planner_compiled
+
+    rng = np.random.default_rng(10 + others)
+    for _ in range(3):
+        model, sequences = planning_problem(rng, rows=8, others=others)
+        compiled = planner_compiled.search(model, sequences, max_sweeps=60)
+        reference = planner_reference.search(model, sequences, max_sweeps=60)
+        assert np.array_equal(compiled[0], reference[0])
+        assert np.array_equal(compiled[1], reference[1])
+
+
+def test_a_flight_through_a_cell_edge_is_settled_exactly():
+    """Estimates are unsure where a position lies on a cell edge (the fire term jumps
+    there): such flips are scored exactly, and the search still equals the reference."""
+    from wildfire_agent import planner_compiled
+
+    rng = np.random.default_rng(12)
+    model, sequences = planning_problem(rng, rows=2, others=1)
+    # Put flip 0's first position 1e-9 m north of the edge y = 500 m.
+    heading = model.own.heading_rad[:, 0]
+    level = planner_reference.NEXT_LEVEL[model.own.bank_steps[:, 0] + 10, sequences[:, 0] ^ 1]
+    first_dy = planner_reference.AHEAD_M[level] * np.sin(heading) + planner_reference.LEFT_M[
+        level
+    ] * np.cos(heading)
+    model = model._replace(own=model.own._replace(y_m=(500.0 + 1e-9 - first_dy)[:, None]))
+    _, unsure = planner_compiled.flip_estimates(model, sequences)
+    assert unsure[:, 0].all()
+    compiled = planner_compiled.search(model, sequences, max_sweeps=60)
+    reference = planner_reference.search(model, sequences, max_sweeps=60)
+    assert np.array_equal(compiled[0], reference[0])
+    assert np.array_equal(compiled[1], reference[1])
+
+
+def test_flip_estimates_are_far_inside_their_tolerance():
+    from wildfire_agent import planner_compiled
+
+    rng = np.random.default_rng(13)
+    model, sequences = planning_problem(rng, rows=8, others=2)
+    estimates, unsure = planner_compiled.flip_estimates(model, sequences)
+    exact = planner_reference.flip_scores(model, sequences)
+    error = np.abs(estimates - exact)[~unsure]
+    assert error.max() < planner_compiled.ESTIMATE_TOLERANCE / 1000
+
+
+def test_compiled_track_is_the_dynamics_track_bit_for_bit():
+    from wildfire_agent import planner_compiled
+
+    rng = np.random.default_rng(14)
+    state = random_poses(rng, (3, 4))
+    state.bank_steps[0, 0] = 0
+    expected = constant_bank_track(state, 60)
+    compiled = planner_compiled.constant_bank_track(state, 60)
+    assert np.array_equal(compiled[0], expected[0]) and np.array_equal(compiled[1], expected[1])
+
+
+@pytest.mark.parametrize("policy", ["rh", "rh-paper"])
+def test_compiled_plans_equal_reference_plans_in_episodes(policy):
+    """Every plan of two 3-aircraft episodes, planned by both searches."""
+    from wildfire_bringup.bench.core import capture_plans
+
+    problems = capture_plans(n_aircraft=3, decisions=60)
+    assert len(problems) > 10
+    for problem in problems:
+        problem = problem._replace(config=planner_config(policy))
+        planned = [
+            plan(*problem._replace(generators=copy.deepcopy(problem.generators)), reference=ref)
+            for ref in (False, True)
+        ]
+        assert np.array_equal(*planned)

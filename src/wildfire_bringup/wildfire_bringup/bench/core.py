@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import copy
 import time
 from typing import Any
 
 import numpy as np
 
+from wildfire_agent.receding_horizon import PlanProblem, plan
 from wildfire_bringup.bench.reference_fire import ReferenceFire
 from wildfire_learning.controllers import RecedingHorizonEnvController
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
@@ -82,8 +84,53 @@ def bench_env(decisions: int = 300, batch_sizes: tuple[int, ...] = (32, 64, 128)
     return result
 
 
+def capture_plans(
+    n_aircraft: int = 3, decisions: int = 150, seeds: tuple[int, ...] = (1_000_000, 1_000_001)
+) -> list[PlanProblem]:
+    """The inputs of every plan of ``rh`` flying ``decisions`` decisions of episodes
+    ``seeds`` (copied, generators included, so that each can be planned again)."""
+    config = EnvConfig(n_aircraft=n_aircraft, observation="none")
+    env = WildfireVecEnv(config, len(seeds))
+    observations = env.reset(list(seeds))
+    controller = RecedingHorizonEnvController()
+    controller.reset(env)
+    assert controller.planner is not None
+    problems: list[PlanProblem] = []
+    controller.planner.on_plan = lambda problem: problems.append(copy.deepcopy(problem))
+    for _ in range(decisions):
+        observations = env.step(controller.act(env, observations)).observations
+    return problems
+
+
+def _plan_all(problems: list[PlanProblem], reference: bool) -> tuple[list[np.ndarray], float]:
+    """Each problem's plans, and the seconds it took (a copy of the generators per plan)."""
+    generators = [copy.deepcopy(problem.generators) for problem in problems]
+    tic = time.perf_counter()
+    plans = [
+        plan(*problem._replace(generators=drawn), reference=reference)
+        for problem, drawn in zip(problems, generators, strict=True)
+    ]
+    return plans, time.perf_counter() - tic
+
+
 def bench_receding_horizon(decisions: int = 100) -> dict[str, Any]:
-    """Wall time of the receding-horizon controller for one aircraft on one core."""
+    """Planning cost: the compiled planner against the numpy reference on the same plans,
+    and the controller's wall time per decision for one aircraft on one core.
+
+    The plans are those of ``rh`` in two 3-aircraft episodes (150 decisions each); a plan
+    is one aircraft's (a call re-planning several aircraft counts each). Each planner runs
+    once over all of them first, so that neither pays compilation or first-touch costs.
+    """
+    problems = capture_plans()
+    aircraft_plans = sum(len(problem.generators) for problem in problems)
+    _plan_all(problems, reference=False)
+    fast_plans, fast_s = _plan_all(problems, reference=False)
+    reference_plans, reference_s = _plan_all(problems, reference=True)
+    identical = all(
+        np.array_equal(fast, reference)
+        for fast, reference in zip(fast_plans, reference_plans, strict=True)
+    )
+
     config = EnvConfig(n_aircraft=2, observation="none", wind=(0.0, 0.0))
     env = WildfireVecEnv(config, 1)
     observations = env.reset([1_000_000])
@@ -98,6 +145,11 @@ def bench_receding_horizon(decisions: int = 100) -> dict[str, Any]:
     times = np.array(per_decision)
     worst_plan = float(times.max())
     return {
+        "plan_ms": fast_s / aircraft_plans * 1e3,
+        "plan_ms_reference": reference_s / aircraft_plans * 1e3,
+        "plan_speedup": reference_s / fast_s,
+        "plans_compared": aircraft_plans,
+        "plans_identical": identical,
         "rh_ms_per_decision": float(times.mean() * 1e3),
         "rh_plan_ms_worst": worst_plan * 1e3,
         "rh_keeps_up_10hz": bool(times.mean() < 0.1 and worst_plan < 1.0),
@@ -105,4 +157,4 @@ def bench_receding_horizon(decisions: int = 100) -> dict[str, Any]:
     }
 
 
-__all__ = ["bench_env", "bench_fire", "bench_receding_horizon"]
+__all__ = ["bench_env", "bench_fire", "bench_receding_horizon", "capture_plans"]

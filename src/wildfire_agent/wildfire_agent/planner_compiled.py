@@ -1,0 +1,723 @@
+"""The receding-horizon planner's search as compiled loops (numba): the same plans and the
+same score floats as the numpy search of :mod:`wildfire_agent.planner_reference`, ~10x
+cheaper.
+
+Each sweep of coordinate descent must find, per row, the first flip of best score and
+whether it beats the row's score. Scoring all T flips exactly (the reference's work) costs
+a sine, a cosine and, per other aircraft, a ``hypot`` and an ``exp`` for every one of the
+T (T + 1) / 2 decisions that the flips change. So a sweep runs in two passes:
+
+1. **Estimate** every flip cheaply: the heading's sine and cosine are carried by rotating
+   them with per-level tables, ranges come from ``sqrt`` and the proximity term from a short
+   polynomial ``exp``. An estimate lies within ``ESTIMATE_TOLERANCE`` of the exact score
+   (its real error is ~1e-11; the tolerance is 10 000 times that), unless the flight
+   passes within ``1e-6`` m of a cell edge, where the fire term jumps: such a flip is
+   *unsure*.
+2. **Settle** exactly only the flips that can still be the row's answer: the unsure ones
+   and those whose estimate is within twice the tolerance of the best estimate. The first
+   exact best among them is the reference's ``argmax``: every other flip scores less than
+   it for certain. A row whose every estimate is a tolerance below its score cannot
+   improve, and ends as the reference's would.
+
+The exact flights replay the reference's arithmetic float for float: every sum in the
+reference's order (its cumulative sums are sequential), no fast-math (LLVM neither
+reassociates nor fuses a multiply and an add), and sin, cos and hypot from the C library,
+which numpy calls too. Not exp: numpy's float64 exp is its own SIMD routine on AVX-512
+machines and differs from the C library's in the last bit for ~5 % of arguments, so the
+exact flights write their ranges out and numpy takes their exp between two compiled calls.
+
+Accepting a row's best flip copies that flip's exact flight into the row's state: it is,
+float for float, what flying the new sequence from scratch gives (the reference flies it
+again).
+
+Kernels compile on first use and are cached on disk (``cache=True``): the first plan on a
+machine pays a few seconds of compilation, later processes load the cache.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from wildfire_agent.dynamics import (
+    DECISION_PERIOD_S,
+    MAX_BANK_STEPS,
+    SPEED_MPS,
+    AircraftState,
+    turn_rate,
+)
+from wildfire_agent.planner_reference import (
+    AHEAD_M,
+    BANK_PENALTY_RAD2,
+    LEFT_M,
+    NEXT_LEVEL,
+    TURN_ANGLE,
+    PlanModel,
+)
+from wildfire_agent.rewards import disc_kernel
+from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
+
+ESTIMATE_TOLERANCE = 1e-7
+"""Bound on |estimated - exact| score of a flip that is not unsure (see the module
+docstring); measured errors are below 1e-10 (tests check them)."""
+EDGE_GUARD_CELLS = 1e-7
+"""A position closer than this (in cells: 1e-6 m) to a cell edge makes its flip unsure."""
+_EXP_CUTOFF = -40.0
+"""exp below this is taken as 0 in estimates (e^-40 = 4e-18, far inside the tolerance)."""
+_EXP_STEPS_PER_LN2 = 64
+
+_kernel = numba.njit(cache=True, nogil=True, error_model="numpy")
+# Helpers called per decision are inlined into their callers: a call passing arrays costs
+# atomic reference counting, which tripled the estimate pass's time.
+_inlined = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+
+# Rows of the per-bank-level table ``_ARCS``.
+_TURN, _AHEAD, _LEFT, _PENALTY, _COS_TURN, _SIN_TURN = range(6)
+# Entries of the weight vector (``_weight_vector``).
+_W_DISTANCE, _W_CLEAR, _W_BANK, _W_PROXIMITY, _W_SCALE, _W_MAX_DISTANCE, _W_DISC = range(7)
+# Columns of the per-point state of a flight: summed turn angle, summed displacements, and
+# the reward's fire and bank terms.
+_ANGLE, _DX, _DY, _BASE = range(4)
+# Rows of the per-row state: the same sums after each decision, and the summed reward.
+_REWARD = 3
+
+
+@_kernel
+def _off_map_fire_term(
+    distance_m: np.ndarray,
+    clear_count: np.ndarray,
+    env: int,
+    x: float,
+    y: float,
+    weights: np.ndarray,
+) -> float:
+    """``rewards.fire_terms`` at one position off the map (where no table entry holds it)."""
+    extent = GRID_SIZE * CELL_SIZE_M
+    col = math.floor(x / CELL_SIZE_M)
+    row = math.floor(y / CELL_SIZE_M)
+    outside = math.hypot(max(max(-x, x - extent), 0.0), max(max(-y, y - extent), 0.0))
+    last = GRID_SIZE - 1
+    nearest = np.float64(distance_m[env, min(max(row, 0), last), min(max(col, 0), last)])
+    distance = min(nearest + outside, weights[_W_MAX_DISTANCE])
+    pad = (clear_count.shape[-1] - GRID_SIZE) // 2
+    if -pad <= row < GRID_SIZE + pad and -pad <= col < GRID_SIZE + pad:
+        padded_last = clear_count.shape[-1] - 1
+        clear = np.float64(
+            clear_count[
+                env, min(max(row + pad, 0), padded_last), min(max(col + pad, 0), padded_last)
+            ]
+        )
+    else:
+        clear = weights[_W_DISC]
+    return -weights[_W_DISTANCE] * distance - weights[_W_CLEAR] * clear
+
+
+@_inlined
+def _on_map(x: float, y: float) -> bool:
+    extent = GRID_SIZE * CELL_SIZE_M
+    return x >= 0.0 and x <= extent and y >= 0.0 and y <= extent
+
+
+@_inlined
+def _table_cell(position_m: float) -> int:
+    """Row or column of ``rewards.fire_term_table`` of an on-map coordinate."""
+    return min(max(math.floor(position_m / CELL_SIZE_M), 0), GRID_SIZE)
+
+
+@_inlined
+def _flight_start(
+    r: int, start: int, level_at: np.ndarray, sums: np.ndarray, start_level: np.ndarray
+) -> tuple[int, float, float, float, float]:
+    """Row ``r``'s bank level, angle sum, displacement sums and reward sum before ``start``."""
+    if start == 0:
+        return start_level[r], 0.0, 0.0, 0.0, 0.0
+    before = start - 1
+    return (
+        level_at[r, before],
+        sums[_ANGLE, r, before],
+        sums[_DX, r, before],
+        sums[_DY, r, before],
+        sums[_REWARD, r, before],
+    )
+
+
+@_kernel
+def _fly_exact(
+    task_row: np.ndarray,
+    task_start: np.ndarray,
+    flip: bool,
+    sequences: np.ndarray,
+    level_at: np.ndarray,
+    sums: np.ndarray,
+    own: np.ndarray,
+    start_level: np.ndarray,
+    env: np.ndarray,
+    others: np.ndarray,
+    table: np.ndarray,
+    distance_m: np.ndarray,
+    clear_count: np.ndarray,
+    weights: np.ndarray,
+    arcs: np.ndarray,
+    next_level: np.ndarray,
+    out_level: np.ndarray,
+    out_state: np.ndarray,
+    out_range: np.ndarray,
+) -> int:
+    """Fly each task exactly as the reference does: row ``task_row[i]``'s sequence (its
+    action at ``task_start[i]`` flipped if ``flip``) from that decision to the horizon.
+
+    Writes one point per decision, task after task: the bank level, the summed turn angle
+    and displacements, the fire and bank terms, the range to each other aircraft. Returns
+    the number of points written.
+    """
+    horizon = sequences.shape[1]
+    point = 0
+    for i in range(task_row.size):
+        r, start = task_row[i], task_start[i]
+        level, angle, cx, cy, _ = _flight_start(r, start, level_at, sums, start_level)
+        x0, y0, h0 = own[r, 0], own[r, 1], own[r, 2]
+        for t in range(start, horizon):
+            action = sequences[r, t]
+            if flip and t == start:
+                action ^= 1
+            level = next_level[level, action]
+            turn = arcs[_TURN, level]
+            # The reference's cumulative sums start at their first element (not 0.0 + it).
+            angle = turn if t == 0 else angle + turn
+            heading = (h0 + angle) - turn
+            sin_h, cos_h = math.sin(heading), math.cos(heading)
+            ahead, left = arcs[_AHEAD, level], arcs[_LEFT, level]
+            dx = ahead * cos_h - left * sin_h
+            dy = ahead * sin_h + left * cos_h
+            cx = dx if t == 0 else cx + dx
+            cy = dy if t == 0 else cy + dy
+            x, y = x0 + cx, y0 + cy
+            # ``rewards.tabled_fire_terms``: the table on the map, ``fire_terms`` off it.
+            if _on_map(x, y):
+                fire = table[env[r], _table_cell(y), _table_cell(x)]
+            else:
+                fire = _off_map_fire_term(distance_m, clear_count, env[r], x, y, weights)
+            out_state[point, _BASE] = fire - weights[_W_BANK] * arcs[_PENALTY, level]
+            for k in range(others.shape[2]):
+                out_range[point, k] = math.hypot(x - others[0, r, k, t], y - others[1, r, k, t])
+            out_level[point] = level
+            out_state[point, _ANGLE] = angle
+            out_state[point, _DX] = cx
+            out_state[point, _DY] = cy
+            point += 1
+    return point
+
+
+@_kernel
+def _score_exact(
+    task_row: np.ndarray,
+    task_start: np.ndarray,
+    horizon: int,
+    weights: np.ndarray,
+    sums: np.ndarray,
+    out_state: np.ndarray,
+    closeness: np.ndarray,
+    out_reward: np.ndarray,
+    totals: np.ndarray,
+) -> None:
+    """Each point's reward (fire and bank terms less the proximity terms, in the reference's
+    order) and each task's total, continuing its row's reward sum before the task."""
+    point = 0
+    for i in range(task_row.size):
+        r, start = task_row[i], task_start[i]
+        total = sums[_REWARD, r, start - 1] if start > 0 else 0.0
+        for t in range(start, horizon):
+            reward = out_state[point, _BASE]
+            for k in range(closeness.shape[1]):
+                reward -= weights[_W_PROXIMITY] * closeness[point, k]
+            out_reward[point] = reward
+            total = reward if t == 0 else total + reward
+            point += 1
+        totals[i] = total
+
+
+@_kernel
+def _accept(
+    r: int,
+    start: int,
+    point: int,
+    out_level: np.ndarray,
+    out_state: np.ndarray,
+    out_reward: np.ndarray,
+    level_at: np.ndarray,
+    sums: np.ndarray,
+) -> None:
+    """Copy an exact flight (its points from ``point`` on) into row ``r`` from ``start``."""
+    total = sums[_REWARD, r, start - 1] if start > 0 else 0.0
+    for t in range(start, level_at.shape[1]):
+        level_at[r, t] = out_level[point]
+        sums[_ANGLE, r, t] = out_state[point, _ANGLE]
+        sums[_DX, r, t] = out_state[point, _DX]
+        sums[_DY, r, t] = out_state[point, _DY]
+        total = out_reward[point] if t == 0 else total + out_reward[point]
+        sums[_REWARD, r, t] = total
+        point += 1
+
+
+@_kernel
+def _estimate_row(
+    r: int,
+    resume_at: int,
+    sequences: np.ndarray,
+    level_at: np.ndarray,
+    sums: np.ndarray,
+    own: np.ndarray,
+    start_level: np.ndarray,
+    env: np.ndarray,
+    others: np.ndarray,
+    table: np.ndarray,
+    distance_m: np.ndarray,
+    clear_count: np.ndarray,
+    weights: np.ndarray,
+    arcs: np.ndarray,
+    next_level: np.ndarray,
+    exp_steps: np.ndarray,
+    flights: np.ndarray,
+    flight_levels: np.ndarray,
+    estimate: np.ndarray,
+    unsure: np.ndarray,
+) -> None:
+    """Estimate every flip of row ``r`` into ``estimate`` (T,), ``unsure`` (T,).
+
+    The flips fly in lockstep: at decision t, every flip j <= t takes its step t. Each
+    flip's state after each decision is kept in ``flights`` (T decisions, 6, T flips: the
+    heading's cosine and sine, the summed displacements, the summed reward, unsure as 0/1)
+    and ``flight_levels`` (T, T), so that the next sweep resumes from it: when the row's
+    sequence changed only from decision ``resume_at`` on (its last flip), the flips before
+    it flew the same decisions up to there, and pick up from their state before it.
+    """
+    horizon = sequences.shape[1]
+    e = env[r]
+    x0, y0, h0 = own[r, 0], own[r, 1], own[r, 2]
+    to_cells = 1.0 / CELL_SIZE_M
+    to_exp = _EXP_STEPS_PER_LN2 / math.log(2.0) / weights[_W_SCALE]
+    exp_step = math.log(2.0) / _EXP_STEPS_PER_LN2
+    # Ranges past this add less than e^-40 each: left out (``_EXP_CUTOFF``).
+    far_squared = (-_EXP_CUTOFF * weights[_W_SCALE]) ** 2
+    # State of every flip before the next decision: after the decision before it.
+    before = flights[max(resume_at - 1, 0)]
+    levels_before = flight_levels[max(resume_at - 1, 0)]
+    for t in range(resume_at, horizon):
+        after, levels_after = flights[t], flight_levels[t]
+        # Flip t joins (in the column it has no state in yet) from the state the row's
+        # sequence reached before decision t.
+        level, angle, cx, cy, total = _flight_start(r, t, level_at, sums, start_level)
+        levels_before[t] = level
+        before[0, t], before[1, t] = math.cos(h0 + angle), math.sin(h0 + angle)
+        before[2, t], before[3, t], before[4, t], before[5, t] = cx, cy, total, 0.0
+        action = sequences[r, t]
+        for j in range(t + 1):
+            level = next_level[levels_before[j], action ^ 1 if j == t else action]
+            cos_h, sin_h = before[0, j], before[1, j]
+            ahead, left = arcs[_AHEAD, level], arcs[_LEFT, level]
+            cx = before[2, j] + (ahead * cos_h - left * sin_h)
+            cy = before[3, j] + (ahead * sin_h + left * cos_h)
+            cos_turn, sin_turn = arcs[_COS_TURN, level], arcs[_SIN_TURN, level]
+            x, y = x0 + cx, y0 + cy
+            col_f, row_f = x * to_cells, y * to_cells
+            col_floor, row_floor = math.floor(col_f), math.floor(row_f)
+            # A position this close to a cell edge may sit in the other cell exactly.
+            edge = before[5, j]
+            if (
+                min(col_f - col_floor, row_f - row_floor) < EDGE_GUARD_CELLS
+                or max(col_f - col_floor, row_f - row_floor) > 1.0 - EDGE_GUARD_CELLS
+            ):
+                edge = 1.0
+            if _on_map(x, y):
+                col = min(max(int(col_floor), 0), GRID_SIZE)
+                row = min(max(int(row_floor), 0), GRID_SIZE)
+                reward = table[e, row, col]
+            else:
+                reward = _off_map_fire_term(distance_m, clear_count, e, x, y, weights)
+            reward -= weights[_W_BANK] * arcs[_PENALTY, level]
+            for k in range(others.shape[2]):
+                dx, dy = x - others[0, r, k, t], y - others[1, r, k, t]
+                squared = dx * dx + dy * dy
+                if squared < far_squared:
+                    # exp(-range / c) = 2^(-i / 64) e^z, |z| <= ln(2) / 128: a table
+                    # entry times a short Taylor series (no division, no call).
+                    scaled = math.sqrt(squared) * to_exp
+                    i = int(scaled + 0.5)
+                    z = (i - scaled) * exp_step
+                    series = 1.0 + z * (
+                        1.0 + z * (0.5 + z * (1.0 / 6.0 + z * (1.0 / 24.0 + z / 120.0)))
+                    )
+                    reward -= weights[_W_PROXIMITY] * (exp_steps[i] * series)
+            levels_after[j] = level
+            after[0, j] = cos_h * cos_turn - sin_h * sin_turn
+            after[1, j] = sin_h * cos_turn + cos_h * sin_turn
+            after[2, j], after[3, j], after[4, j], after[5, j] = cx, cy, before[4, j] + reward, edge
+        before, levels_before = after, levels_after
+    for j in range(horizon):
+        estimate[j] = before[4, j]
+        unsure[j] = before[5, j] != 0.0
+
+
+@_kernel
+def _estimate_flips(
+    active: int,
+    rows: np.ndarray,
+    scores: np.ndarray,
+    sequences: np.ndarray,
+    level_at: np.ndarray,
+    sums: np.ndarray,
+    own: np.ndarray,
+    start_level: np.ndarray,
+    env: np.ndarray,
+    others: np.ndarray,
+    table: np.ndarray,
+    distance_m: np.ndarray,
+    clear_count: np.ndarray,
+    weights: np.ndarray,
+    arcs: np.ndarray,
+    next_level: np.ndarray,
+    exp_steps: np.ndarray,
+    last_flip: np.ndarray,
+    flights: np.ndarray,
+    flight_levels: np.ndarray,
+    estimate: np.ndarray,
+    unsure: np.ndarray,
+    task_row: np.ndarray,
+    task_start: np.ndarray,
+    row_tasks: np.ndarray,
+) -> int:
+    """Estimate every flip of the ``active`` first rows of ``rows`` (into ``estimate[i]``,
+    ``unsure[i]``) and list the flips to settle exactly: ``row_tasks[i]`` of them for row
+    i (0: the row cannot improve), in flip order, in ``task_row`` / ``task_start``.
+    Returns the number of flips to settle."""
+    horizon = sequences.shape[1]
+    tasks = 0
+    for i in range(active):
+        r = rows[i]
+        _estimate_row(
+            r,
+            max(last_flip[r], 0),
+            sequences,
+            level_at,
+            sums,
+            own,
+            start_level,
+            env,
+            others,
+            table,
+            distance_m,
+            clear_count,
+            weights,
+            arcs,
+            next_level,
+            exp_steps,
+            flights[r],
+            flight_levels[r],
+            estimate[i],
+            unsure[i],
+        )
+        best = -np.inf
+        any_unsure = False
+        for j in range(horizon):
+            if unsure[i, j]:
+                any_unsure = True
+            else:
+                best = max(best, estimate[i, j])
+        first = tasks
+        if any_unsure or best + ESTIMATE_TOLERANCE > scores[r]:
+            for j in range(horizon):
+                if unsure[i, j] or estimate[i, j] >= best - 2.0 * ESTIMATE_TOLERANCE:
+                    task_row[tasks] = r
+                    task_start[tasks] = j
+                    tasks += 1
+        row_tasks[i] = tasks - first
+    return tasks
+
+
+@_kernel
+def _take_best_flips(
+    active: int,
+    rows: np.ndarray,
+    row_tasks: np.ndarray,
+    task_start: np.ndarray,
+    totals: np.ndarray,
+    scores: np.ndarray,
+    sequences: np.ndarray,
+    out_level: np.ndarray,
+    out_state: np.ndarray,
+    out_reward: np.ndarray,
+    level_at: np.ndarray,
+    sums: np.ndarray,
+    last_flip: np.ndarray,
+) -> int:
+    """Flip each active row's first exact best where it beats the row's score; the rows
+    that improved are moved to the front of ``rows``, and their count returned."""
+    horizon = sequences.shape[1]
+    kept = 0
+    task = 0
+    point = 0
+    for i in range(active):
+        r = rows[i]
+        best = -1
+        best_point = 0
+        for _ in range(row_tasks[i]):
+            if best < 0 or totals[task] > totals[best]:
+                best, best_point = task, point
+            point += horizon - task_start[task]
+            task += 1
+        if best >= 0 and totals[best] > scores[r]:
+            scores[r] = totals[best]
+            sequences[r, task_start[best]] ^= 1
+            last_flip[r] = task_start[best]
+            _accept(
+                r, task_start[best], best_point, out_level, out_state, out_reward, level_at, sums
+            )
+            rows[kept] = r
+            kept += 1
+    return kept
+
+
+@_kernel
+def _constant_bank_track(
+    x_m: np.ndarray, y_m: np.ndarray, heading_rad: np.ndarray, rate: np.ndarray, steps: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``dynamics.constant_bank_track`` of flat arrays (M,), float for float: the same arcs
+    from the C library's sin and cos, the heading wrapped after each step as ``wrap_angle``
+    wraps it."""
+    out_x = np.empty((x_m.size, steps))
+    out_y = np.empty((x_m.size, steps))
+    two_pi = 2.0 * np.pi
+    for m in range(x_m.size):
+        x, y, heading, turn = x_m[m], y_m[m], heading_rad[m], rate[m]
+        for t in range(steps):
+            new_heading = heading + turn * DECISION_PERIOD_S
+            if turn != 0.0:
+                x += SPEED_MPS / turn * (math.sin(new_heading) - math.sin(heading))
+                y += SPEED_MPS / turn * (math.cos(heading) - math.cos(new_heading))
+            else:
+                x += SPEED_MPS * DECISION_PERIOD_S * math.cos(heading)
+                y += SPEED_MPS * DECISION_PERIOD_S * math.sin(heading)
+            out_x[m, t], out_y[m, t] = x, y
+            # Python's float modulo, as numpy's: the remainder takes the divisor's sign.
+            heading = np.pi - (np.pi - new_heading) % two_pi
+    return out_x, out_y
+
+
+def constant_bank_track(state: AircraftState, steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """``dynamics.constant_bank_track`` compiled: positions (x, y), each (..., steps), of
+    aircraft holding their bank, the same floats (tested)."""
+    shape = np.shape(state.x_m)
+    x, y, heading, rate = (
+        np.ascontiguousarray(np.reshape(field, -1), np.float64)
+        # The turn rate from numpy's tan, as dynamics computes it.
+        for field in (state.x_m, state.y_m, state.heading_rad, turn_rate(state.bank_rad))
+    )
+    x, y = _constant_bank_track(x, y, heading, rate, steps)
+    return x.reshape(*shape, steps), y.reshape(*shape, steps)
+
+
+_ARCS = np.ascontiguousarray(
+    np.stack(
+        [TURN_ANGLE, AHEAD_M, LEFT_M, BANK_PENALTY_RAD2, np.cos(TURN_ANGLE), np.sin(TURN_ANGLE)]
+    )
+)
+"""Per bank level (index ``bank_steps + 10``): turn angle, metres ahead, metres left, phi^2,
+cos and sin of the turn. The kernels take tables as arguments rather than compiling them in
+as constants, which their disk cache would keep after the tables changed."""
+_NEXT = np.ascontiguousarray(NEXT_LEVEL, dtype=np.int64)
+_EXP_STEPS = 2.0 ** (
+    -np.arange(int(-_EXP_CUTOFF * _EXP_STEPS_PER_LN2 / math.log(2.0)) + 2) / _EXP_STEPS_PER_LN2
+)
+"""e^(-i ln(2) / 64) = 2^(-i / 64) for i = 0, 1, ... down to e^-40: the estimates' exp table."""
+
+
+def _weight_vector(model: PlanModel) -> np.ndarray:
+    """The reward weights the kernels read, in the order of the ``_W_*`` indices."""
+    weights = model.weights
+    return np.array(
+        [
+            weights.distance,
+            weights.clear_cells,
+            weights.bank,
+            weights.proximity,
+            weights.proximity_scale_m,
+            weights.max_distance_m,
+            float(disc_kernel(weights.clear_radius_m).sum()),
+        ]
+    )
+
+
+class _Search:
+    """The buffers and state of one search: one row per sequence being improved."""
+
+    def __init__(self, model: PlanModel, sequences: np.ndarray) -> None:
+        self.sequences = np.array(sequences, dtype=np.int64)
+        count, horizon = self.sequences.shape
+        own = model.own
+        self.weights = _weight_vector(model)
+        self.scene = (
+            np.stack([own.x_m[:, 0], own.y_m[:, 0], own.heading_rad[:, 0]], -1).astype(np.float64),
+            np.ascontiguousarray(own.bank_steps[:, 0] + MAX_BANK_STEPS, dtype=np.int64),
+            np.ascontiguousarray(model.env, dtype=np.int64),
+            np.ascontiguousarray(np.stack([model.others_x, model.others_y]), dtype=np.float64),
+            np.ascontiguousarray(model.table, dtype=np.float64),
+            np.ascontiguousarray(model.maps.distance_m),
+            np.ascontiguousarray(model.maps.clear_count),
+            self.weights,
+            _ARCS,
+            _NEXT,
+        )
+        # Each row's state after each decision of its current sequence: the per-point sums
+        # (``_ANGLE``, ``_DX``, ``_DY``) and the summed reward (``_REWARD``); its bank levels.
+        self.sums = np.empty((4, count, horizon))
+        self.level_at = np.empty((count, horizon), np.int64)
+        # Exact flights: at most one per (row, flip), T - flip points each.
+        points = count * horizon * (horizon + 1) // 2
+        self.out_level = np.empty(points, np.int64)
+        self.out_state, self.out_reward = np.empty((points, 4)), np.empty(points)
+        self.out_range = np.empty((points, model.others_x.shape[1]))
+        self.task_row = np.empty(count * horizon, np.int64)
+        self.task_start = np.empty(count * horizon, np.int64)
+        self.totals = np.empty(count * horizon)
+        self.estimate = np.empty((count, horizon))
+        self.unsure = np.empty((count, horizon), np.bool_)
+        self.row_tasks = np.ones(count, np.int64)
+        # Each row's flips as last estimated (see ``_estimate_row``), and its last flip.
+        self.flights = np.empty((count, horizon, 6, horizon))
+        self.flight_levels = np.empty((count, horizon, horizon), np.int64)
+        self.last_flip = np.full(count, -1, np.int64)
+        # Rows still being improved: the first ``active`` of ``rows``.
+        self.rows = np.arange(count, dtype=np.int64)
+        self.active = count
+        # Fly every row's sequence exactly and take it as the row's state (an unflipped
+        # flight from decision 0 "beats" a score of -inf).
+        self.scores = np.full(count, -np.inf)
+        self.task_row[:count], self.task_start[:count] = self.rows, 0
+        self._settle(count, flip=False)
+        self.active = count
+        self.last_flip[:] = -1
+
+    def _settle(self, tasks: int, flip: bool) -> int:
+        """Fly the listed tasks exactly and take each row's best; returns the rows kept."""
+        rows, starts = self.task_row[:tasks], self.task_start[:tasks]
+        used = _fly_exact(
+            rows,
+            starts,
+            flip,
+            self.sequences,
+            self.level_at,
+            self.sums,
+            *self.scene,
+            self.out_level,
+            self.out_state,
+            self.out_range,
+        )
+        # numpy's exp, as the reference's (see the module docstring).
+        closeness = np.exp(-self.out_range[:used] / self.weights[_W_SCALE])
+        _score_exact(
+            rows,
+            starts,
+            self.sequences.shape[1],
+            self.weights,
+            self.sums,
+            self.out_state,
+            closeness,
+            self.out_reward,
+            self.totals,
+        )
+        if not flip:
+            # Unflipped flights replay the rows' own sequences: undo the take's flip.
+            self.sequences[rows, starts] ^= 1
+        return _take_best_flips(
+            self.active,
+            self.rows,
+            self.row_tasks,
+            starts,
+            self.totals,
+            self.scores,
+            self.sequences,
+            self.out_level,
+            self.out_state,
+            self.out_reward,
+            self.level_at,
+            self.sums,
+            self.last_flip,
+        )
+
+    def estimate_flips(self) -> int:
+        """Estimate every flip of the active rows; returns the number of flips to settle."""
+        return _estimate_flips(
+            self.active,
+            self.rows,
+            self.scores,
+            self.sequences,
+            self.level_at,
+            self.sums,
+            *self.scene,
+            _EXP_STEPS,
+            self.last_flip,
+            self.flights,
+            self.flight_levels,
+            self.estimate,
+            self.unsure,
+            self.task_row,
+            self.task_start,
+            self.row_tasks,
+        )
+
+    def sweep(self) -> bool:
+        """One sweep of coordinate descent; False once no row improved."""
+        self.active = self._settle(self.estimate_flips(), flip=True)
+        return self.active > 0
+
+
+def search(
+    model: PlanModel, sequences: np.ndarray, max_sweeps: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Coordinate descent from ``sequences`` (N, T), one per row of ``model``: the same local
+    optima (N, T) and scores (N,) as ``planner_reference.search``."""
+    state = _Search(model, sequences)
+    for _ in range(max_sweeps):
+        if not state.sweep():
+            break
+    return state.sequences, state.scores
+
+
+def flip_estimates(model: PlanModel, sequences: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Estimated score (N, T) of each single-action flip of ``sequences`` (N, T), and which
+    estimates are unsure (their flight passes a cell edge): what a sweep settles from."""
+    state = _Search(model, sequences)
+    state.estimate_flips()
+    return state.estimate.copy(), state.unsure.copy()
+
+
+def compile_kernels() -> None:
+    """Compile (or load from the disk cache) every kernel: one small search."""
+    from wildfire_agent.planner_reference import plan_model
+    from wildfire_agent.rewards import ObservationRewardWeights, fire_field_maps
+
+    burning = np.zeros((1, GRID_SIZE, GRID_SIZE), dtype=bool)
+    burning[0, 45:55, 45:55] = True
+    weights = ObservationRewardWeights()
+    one = np.ones(1)
+    state = AircraftState(500.0 * one, 300.0 * one, one, np.zeros(1, np.int64))
+    others = AircraftState(*(field[:, None] for field in state))
+    model = plan_model(
+        state,
+        np.zeros(1),
+        fire_field_maps(burning, weights),
+        constant_bank_track(others, 8),
+        weights,
+    )
+    search(model, np.zeros((1, 8), np.int64), max_sweeps=2)
+
+
+__all__ = [
+    "ESTIMATE_TOLERANCE",
+    "compile_kernels",
+    "constant_bank_track",
+    "flip_estimates",
+    "search",
+]
