@@ -1,37 +1,37 @@
 """The receding-horizon planner's search as compiled loops (numba): the same plans and the
 same score floats as the numpy search of :mod:`wildfire_agent.planner_reference`, ~10x
-cheaper.
+cheaper (``wildfire bench --only rh`` times both on the same plans).
 
 Each sweep of coordinate descent must find, per row, the first flip of best score and
-whether it beats the row's score. Scoring all T flips exactly (the reference's work) costs
+whether it beats the row's score. Scoring all T flips exactly, as the reference does, costs
 a sine, a cosine and, per other aircraft, a ``hypot`` and an ``exp`` for every one of the
 T (T + 1) / 2 decisions that the flips change. So a sweep runs in two passes:
 
-1. **Estimate** every flip cheaply: the heading's sine and cosine are carried by rotating
-   them with per-level tables, ranges come from ``sqrt`` and the proximity term from a short
-   polynomial ``exp``. An estimate lies within ``ESTIMATE_TOLERANCE`` of the exact score
-   (its real error is ~1e-11; the tolerance is 10 000 times that), unless the flight
-   passes within ``1e-6`` m of a cell edge, where the fire term jumps: such a flip is
-   *unsure*.
+1. **Estimate** every flip cheaply (:func:`_estimate_row`): the heading's cosine and sine
+   are carried by rotating them with per-level tables, and the proximity term is a
+   polynomial of the range, in a loop the compiler turns into vector instructions. An
+   estimate lies within ``ESTIMATE_TOLERANCE`` of the exact score (measured errors are
+   below 1e-12), unless its flight passes within 1e-6 m of a cell edge, where the fire
+   term jumps: the flip is then *unsure*. A flip that changes the sequence only from
+   decision j on flies decisions before j as in the last sweep, so each flip's state
+   after each decision is kept and the next sweep resumes from it.
 2. **Settle** exactly only the flips that can still be the row's answer: the unsure ones
    and those whose estimate is within twice the tolerance of the best estimate. The first
-   exact best among them is the reference's ``argmax``: every other flip scores less than
-   it for certain. A row whose every estimate is a tolerance below its score cannot
-   improve, and ends as the reference's would.
+   exact best among them is the reference's ``argmax``: every other flip scores less for
+   certain. A row whose every estimate is a tolerance below its score cannot improve, and
+   stops, as the reference's does.
 
 The exact flights replay the reference's arithmetic float for float: every sum in the
 reference's order (its cumulative sums are sequential), no fast-math (LLVM neither
-reassociates nor fuses a multiply and an add), and sin, cos and hypot from the C library,
-which numpy calls too. Not exp: numpy's float64 exp is its own SIMD routine on AVX-512
-machines and differs from the C library's in the last bit for ~5 % of arguments, so the
-exact flights write their ranges out and numpy takes their exp between two compiled calls.
+reassociates nor fuses a multiply and an add), sin, cos and hypot from the C library, which
+numpy calls too. Not exp: numpy's float64 exp is its own SIMD routine on AVX-512 machines
+and differs from the C library's in the last bit for ~5 % of arguments, so the exact flights
+write their ranges out and numpy takes their exp between two compiled calls. Accepting a
+row's best flip copies that flip's exact flight into the row's state: float for float what
+flying the new sequence from scratch gives (the reference flies it again).
 
-Accepting a row's best flip copies that flip's exact flight into the row's state: it is,
-float for float, what flying the new sequence from scratch gives (the reference flies it
-again).
-
-Kernels compile on first use and are cached on disk (``cache=True``): the first plan on a
-machine pays a few seconds of compilation, later processes load the cache.
+Kernels compile once per machine and are cached beside this file (``cache=True``;
+``scripts/setup.sh`` compiles them, so that agent nodes only load them).
 """
 
 from __future__ import annotations
@@ -66,14 +66,13 @@ EDGE_GUARD_CELLS = 1e-7
 """A position closer than this (in cells: 1e-6 m) to a cell edge makes its flip unsure."""
 _EXP_CUTOFF = -40.0
 """exp below this is taken as 0 in estimates (e^-40 = 4e-18, far inside the tolerance)."""
-_EXP_STEPS_PER_LN2 = 64
 
 _kernel = numba.njit(cache=True, nogil=True, error_model="numpy")
 # Helpers called per decision are inlined into their callers: a call passing arrays costs
 # atomic reference counting, which tripled the estimate pass's time.
 _inlined = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
-# Rows of the per-bank-level table ``_ARCS``.
+# Columns of the per-bank-level table ``_ARCS``.
 _TURN, _AHEAD, _LEFT, _PENALTY, _COS_TURN, _SIN_TURN = range(6)
 # Entries of the weight vector (``_weight_vector``).
 _W_DISTANCE, _W_CLEAR, _W_BANK, _W_PROXIMITY, _W_SCALE, _W_MAX_DISTANCE, _W_DISC = range(7)
@@ -183,12 +182,12 @@ def _fly_exact(
             if flip and t == start:
                 action ^= 1
             level = next_level[level, action]
-            turn = arcs[_TURN, level]
+            turn = arcs[level, _TURN]
             # The reference's cumulative sums start at their first element (not 0.0 + it).
             angle = turn if t == 0 else angle + turn
             heading = (h0 + angle) - turn
             sin_h, cos_h = math.sin(heading), math.cos(heading)
-            ahead, left = arcs[_AHEAD, level], arcs[_LEFT, level]
+            ahead, left = arcs[level, _AHEAD], arcs[level, _LEFT]
             dx = ahead * cos_h - left * sin_h
             dy = ahead * sin_h + left * cos_h
             cx = dx if t == 0 else cx + dx
@@ -199,7 +198,7 @@ def _fly_exact(
                 fire = table[env[r], _table_cell(y), _table_cell(x)]
             else:
                 fire = _off_map_fire_term(distance_m, clear_count, env[r], x, y, weights)
-            out_state[point, _BASE] = fire - weights[_W_BANK] * arcs[_PENALTY, level]
+            out_state[point, _BASE] = fire - weights[_W_BANK] * arcs[level, _PENALTY]
             for k in range(others.shape[2]):
                 out_range[point, k] = math.hypot(x - others[0, r, k, t], y - others[1, r, k, t])
             out_level[point] = level
@@ -261,6 +260,36 @@ def _accept(
         point += 1
 
 
+@_inlined
+def _subtract_closeness(
+    flights: np.ndarray, count: int, offset_x: float, offset_y: float, weights: np.ndarray
+) -> None:
+    """Subtract the proximity term to one other aircraft from the summed reward of the
+    ``count`` flights of ``flights`` (6, T) (positions: the summed displacements plus the
+    ownship's start less the other's position, ``offset``).
+
+    exp(-range / c) is (e^z)^64 for z = -range / (64 c), clamped at -40 / 64 (e^-40 is
+    4e-18: nothing left to add); e^z by its Taylor series to z^11: absolute error < 1e-14.
+    No table and no branch, so the loop runs on vector instructions.
+    """
+    scale = -1.0 / (weights[_W_SCALE] * 64.0)
+    proximity = weights[_W_PROXIMITY]
+    for j in range(count):
+        dx = flights[2, j] + offset_x
+        dy = flights[3, j] + offset_y
+        z = max(math.sqrt(dx * dx + dy * dy) * scale, _EXP_CUTOFF / 64.0)
+        power = 1.0 + z * (
+            1.0 + z * (1.0 / 2.0 + z * (1.0 / 6.0 + z * (1.0 / 24.0 + z * (1.0 / 120.0 + z * (
+                1.0 / 720.0 + z * (1.0 / 5040.0 + z * (1.0 / 40320.0 + z * (
+                    1.0 / 362880.0 + z * (1.0 / 3628800.0 + z / 39916800.0)
+                )))
+            )))))
+        )  # fmt: skip
+        for _ in range(6):
+            power *= power
+        flights[4, j] -= proximity * power
+
+
 @_kernel
 def _estimate_row(
     r: int,
@@ -278,7 +307,6 @@ def _estimate_row(
     weights: np.ndarray,
     arcs: np.ndarray,
     next_level: np.ndarray,
-    exp_steps: np.ndarray,
     flights: np.ndarray,
     flight_levels: np.ndarray,
     estimate: np.ndarray,
@@ -297,10 +325,8 @@ def _estimate_row(
     e = env[r]
     x0, y0, h0 = own[r, 0], own[r, 1], own[r, 2]
     to_cells = 1.0 / CELL_SIZE_M
-    to_exp = _EXP_STEPS_PER_LN2 / math.log(2.0) / weights[_W_SCALE]
-    exp_step = math.log(2.0) / _EXP_STEPS_PER_LN2
-    # Ranges past this add less than e^-40 each: left out (``_EXP_CUTOFF``).
-    far_squared = (-_EXP_CUTOFF * weights[_W_SCALE]) ** 2
+    edge_limit = 0.5 - EDGE_GUARD_CELLS
+    half_extent = GRID_SIZE * CELL_SIZE_M / 2.0
     # State of every flip before the next decision: after the decision before it.
     before = flights[max(resume_at - 1, 0)]
     levels_before = flight_levels[max(resume_at - 1, 0)]
@@ -316,44 +342,31 @@ def _estimate_row(
         for j in range(t + 1):
             level = next_level[levels_before[j], action ^ 1 if j == t else action]
             cos_h, sin_h = before[0, j], before[1, j]
-            ahead, left = arcs[_AHEAD, level], arcs[_LEFT, level]
+            ahead, left = arcs[level, _AHEAD], arcs[level, _LEFT]
             cx = before[2, j] + (ahead * cos_h - left * sin_h)
             cy = before[3, j] + (ahead * sin_h + left * cos_h)
-            cos_turn, sin_turn = arcs[_COS_TURN, level], arcs[_SIN_TURN, level]
+            cos_turn, sin_turn = arcs[level, _COS_TURN], arcs[level, _SIN_TURN]
             x, y = x0 + cx, y0 + cy
             col_f, row_f = x * to_cells, y * to_cells
             col_floor, row_floor = math.floor(col_f), math.floor(row_f)
             # A position this close to a cell edge may sit in the other cell exactly.
             edge = before[5, j]
-            if (
-                min(col_f - col_floor, row_f - row_floor) < EDGE_GUARD_CELLS
-                or max(col_f - col_floor, row_f - row_floor) > 1.0 - EDGE_GUARD_CELLS
-            ):
+            if max(abs(col_f - col_floor - 0.5), abs(row_f - row_floor - 0.5)) > edge_limit:
                 edge = 1.0
-            if _on_map(x, y):
-                col = min(max(int(col_floor), 0), GRID_SIZE)
-                row = min(max(int(row_floor), 0), GRID_SIZE)
-                reward = table[e, row, col]
+            if max(abs(x - half_extent), abs(y - half_extent)) <= half_extent:
+                # On the map (its far edge included): cell indices 0..GRID_SIZE.
+                reward = table[e, int(row_floor), int(col_floor)]
             else:
                 reward = _off_map_fire_term(distance_m, clear_count, e, x, y, weights)
-            reward -= weights[_W_BANK] * arcs[_PENALTY, level]
-            for k in range(others.shape[2]):
-                dx, dy = x - others[0, r, k, t], y - others[1, r, k, t]
-                squared = dx * dx + dy * dy
-                if squared < far_squared:
-                    # exp(-range / c) = 2^(-i / 64) e^z, |z| <= ln(2) / 128: a table
-                    # entry times a short Taylor series (no division, no call).
-                    scaled = math.sqrt(squared) * to_exp
-                    i = int(scaled + 0.5)
-                    z = (i - scaled) * exp_step
-                    series = 1.0 + z * (
-                        1.0 + z * (0.5 + z * (1.0 / 6.0 + z * (1.0 / 24.0 + z / 120.0)))
-                    )
-                    reward -= weights[_W_PROXIMITY] * (exp_steps[i] * series)
+            reward -= weights[_W_BANK] * arcs[level, _PENALTY]
             levels_after[j] = level
             after[0, j] = cos_h * cos_turn - sin_h * sin_turn
             after[1, j] = sin_h * cos_turn + cos_h * sin_turn
             after[2, j], after[3, j], after[4, j], after[5, j] = cx, cy, before[4, j] + reward, edge
+        for k in range(others.shape[2]):
+            _subtract_closeness(
+                after, t + 1, x0 - others[0, r, k, t], y0 - others[1, r, k, t], weights
+            )
         before, levels_before = after, levels_after
     for j in range(horizon):
         estimate[j] = before[4, j]
@@ -378,7 +391,6 @@ def _estimate_flips(
     weights: np.ndarray,
     arcs: np.ndarray,
     next_level: np.ndarray,
-    exp_steps: np.ndarray,
     last_flip: np.ndarray,
     flights: np.ndarray,
     flight_levels: np.ndarray,
@@ -387,11 +399,14 @@ def _estimate_flips(
     task_row: np.ndarray,
     task_start: np.ndarray,
     row_tasks: np.ndarray,
-) -> int:
+    out_level: np.ndarray,
+    out_state: np.ndarray,
+    out_range: np.ndarray,
+) -> tuple[int, int]:
     """Estimate every flip of the ``active`` first rows of ``rows`` (into ``estimate[i]``,
-    ``unsure[i]``) and list the flips to settle exactly: ``row_tasks[i]`` of them for row
-    i (0: the row cannot improve), in flip order, in ``task_row`` / ``task_start``.
-    Returns the number of flips to settle."""
+    ``unsure[i]``), list the flips to settle exactly: ``row_tasks[i]`` of them for row i
+    (0: the row cannot improve), in flip order, in ``task_row`` / ``task_start``, and fly
+    them exactly (:func:`_fly_exact`). Returns the number of flips listed and of points."""
     horizon = sequences.shape[1]
     tasks = 0
     for i in range(active):
@@ -412,7 +427,6 @@ def _estimate_flips(
             weights,
             arcs,
             next_level,
-            exp_steps,
             flights[r],
             flight_levels[r],
             estimate[i],
@@ -433,7 +447,12 @@ def _estimate_flips(
                     task_start[tasks] = j
                     tasks += 1
         row_tasks[i] = tasks - first
-    return tasks
+    points = _fly_exact(
+        task_row[:tasks], task_start[:tasks], True, sequences, level_at, sums, own,
+        start_level, env, others, table, distance_m, clear_count, weights, arcs, next_level,
+        out_level, out_state, out_range,
+    )  # fmt: skip
+    return tasks, points
 
 
 @_kernel
@@ -441,7 +460,10 @@ def _take_best_flips(
     active: int,
     rows: np.ndarray,
     row_tasks: np.ndarray,
+    task_row: np.ndarray,
     task_start: np.ndarray,
+    weights: np.ndarray,
+    closeness: np.ndarray,
     totals: np.ndarray,
     scores: np.ndarray,
     sequences: np.ndarray,
@@ -452,9 +474,14 @@ def _take_best_flips(
     sums: np.ndarray,
     last_flip: np.ndarray,
 ) -> int:
-    """Flip each active row's first exact best where it beats the row's score; the rows
-    that improved are moved to the front of ``rows``, and their count returned."""
+    """Score the exact flights (:func:`_score_exact`, their proximity terms' exp given in
+    ``closeness``) and flip each active row's first exact best where it beats the row's
+    score; the rows that improved are moved to the front of ``rows``, and their count
+    returned."""
     horizon = sequences.shape[1]
+    _score_exact(
+        task_row, task_start, horizon, weights, sums, out_state, closeness, out_reward, totals
+    )
     kept = 0
     task = 0
     point = 0
@@ -520,17 +547,15 @@ def constant_bank_track(state: AircraftState, steps: int) -> tuple[np.ndarray, n
 
 _ARCS = np.ascontiguousarray(
     np.stack(
-        [TURN_ANGLE, AHEAD_M, LEFT_M, BANK_PENALTY_RAD2, np.cos(TURN_ANGLE), np.sin(TURN_ANGLE)]
+        [TURN_ANGLE, AHEAD_M, LEFT_M, BANK_PENALTY_RAD2, np.cos(TURN_ANGLE), np.sin(TURN_ANGLE)],
+        axis=-1,
     )
 )
-"""Per bank level (index ``bank_steps + 10``): turn angle, metres ahead, metres left, phi^2,
-cos and sin of the turn. The kernels take tables as arguments rather than compiling them in
-as constants, which their disk cache would keep after the tables changed."""
+"""Per bank level (row ``bank_steps + 10``): turn angle, metres ahead, metres left, phi^2,
+cos and sin of the turn, side by side in memory. The kernels take tables as arguments
+rather than compiling them in as constants, which their disk cache would keep after the
+tables changed."""
 _NEXT = np.ascontiguousarray(NEXT_LEVEL, dtype=np.int64)
-_EXP_STEPS = 2.0 ** (
-    -np.arange(int(-_EXP_CUTOFF * _EXP_STEPS_PER_LN2 / math.log(2.0)) + 2) / _EXP_STEPS_PER_LN2
-)
-"""e^(-i ln(2) / 64) = 2^(-i / 64) for i = 0, 1, ... down to e^-40: the estimates' exp table."""
 
 
 def _weight_vector(model: PlanModel) -> np.ndarray:
@@ -595,81 +620,41 @@ class _Search:
         # flight from decision 0 "beats" a score of -inf).
         self.scores = np.full(count, -np.inf)
         self.task_row[:count], self.task_start[:count] = self.rows, 0
-        self._settle(count, flip=False)
+        points = _fly_exact(
+            self.rows, self.task_start[:count], False, self.sequences, self.level_at,
+            self.sums, *self.scene, self.out_level, self.out_state, self.out_range,
+        )  # fmt: skip
+        # The take flips what it accepts: flip the sequences first, so that it flips them back.
+        self.sequences[:, 0] ^= 1
+        self._take(count, points)
         self.active = count
         self.last_flip[:] = -1
 
-    def _settle(self, tasks: int, flip: bool) -> int:
-        """Fly the listed tasks exactly and take each row's best; returns the rows kept."""
-        rows, starts = self.task_row[:tasks], self.task_start[:tasks]
-        used = _fly_exact(
-            rows,
-            starts,
-            flip,
-            self.sequences,
-            self.level_at,
-            self.sums,
-            *self.scene,
-            self.out_level,
-            self.out_state,
-            self.out_range,
-        )
+    def _take(self, tasks: int, points: int) -> int:
+        """Score the ``tasks`` exact flights (``points`` points) and take each active row's
+        best; returns the number of rows that improved."""
         # numpy's exp, as the reference's (see the module docstring).
-        closeness = np.exp(-self.out_range[:used] / self.weights[_W_SCALE])
-        _score_exact(
-            rows,
-            starts,
-            self.sequences.shape[1],
-            self.weights,
-            self.sums,
-            self.out_state,
-            closeness,
-            self.out_reward,
-            self.totals,
-        )
-        if not flip:
-            # Unflipped flights replay the rows' own sequences: undo the take's flip.
-            self.sequences[rows, starts] ^= 1
+        closeness = np.exp(-self.out_range[:points] / self.weights[_W_SCALE])
         return _take_best_flips(
-            self.active,
-            self.rows,
-            self.row_tasks,
-            starts,
-            self.totals,
-            self.scores,
-            self.sequences,
-            self.out_level,
-            self.out_state,
-            self.out_reward,
-            self.level_at,
-            self.sums,
-            self.last_flip,
-        )
+            self.active, self.rows, self.row_tasks, self.task_row[:tasks],
+            self.task_start[:tasks], self.weights, closeness, self.totals, self.scores,
+            self.sequences, self.out_level, self.out_state, self.out_reward, self.level_at,
+            self.sums, self.last_flip,
+        )  # fmt: skip
 
-    def estimate_flips(self) -> int:
-        """Estimate every flip of the active rows; returns the number of flips to settle."""
+    def estimate_flips(self) -> tuple[int, int]:
+        """Estimate every flip of the active rows and fly exactly those that can still win:
+        how many, and their points."""
         return _estimate_flips(
-            self.active,
-            self.rows,
-            self.scores,
-            self.sequences,
-            self.level_at,
-            self.sums,
-            *self.scene,
-            _EXP_STEPS,
-            self.last_flip,
-            self.flights,
-            self.flight_levels,
-            self.estimate,
-            self.unsure,
-            self.task_row,
-            self.task_start,
-            self.row_tasks,
-        )
+            self.active, self.rows, self.scores, self.sequences, self.level_at, self.sums,
+            *self.scene, self.last_flip, self.flights, self.flight_levels, self.estimate,
+            self.unsure, self.task_row, self.task_start, self.row_tasks, self.out_level,
+            self.out_state, self.out_range,
+        )  # fmt: skip
 
     def sweep(self) -> bool:
         """One sweep of coordinate descent; False once no row improved."""
-        self.active = self._settle(self.estimate_flips(), flip=True)
+        self.active = self._take(*self.estimate_flips())
         return self.active > 0
 
 

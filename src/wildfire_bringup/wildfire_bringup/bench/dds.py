@@ -1,7 +1,9 @@
 """DDS benchmark: grid fan-out latency across processes and the cost of our layer.
 
 ``bench_dds()`` measures, on the loopback-only Cyclone DDS configuration and a domain id of its
-own (so it never disturbs a running system or a test session):
+own (so it never disturbs a running system or a test session), whatever the backend in use:
+it measures our Cyclone layer, so its messages are the layer's classes
+(``wildfire_msgs_py.types``), never the rclpy ones the codecs would build by default:
 
 * **grid latency** — a 100x100 ``nav_msgs/OccupancyGrid`` published at 10 Hz by this process
   to ``grid_subscribers`` subscriber processes (separate OS processes, each a full node that
@@ -161,7 +163,7 @@ def _layer_roundtrip_s(count: int, domain_id: int) -> float:
         grid = _random_grid()
         start = time.perf_counter()
         for i in range(count):
-            publisher.publish(grid_to_msg(grid, i))
+            publisher.publish(grid_to_msg(grid, i, message_class=grid_type))
             executor.spin_once(timeout_sec=1.0)
         elapsed = (time.perf_counter() - start) / count
         assert len(received) == count, f"layer benchmark lost messages ({len(received)}/{count})"
@@ -233,9 +235,8 @@ def _grid_latency(subscribers: int, messages: int, domain_id: int) -> list[float
             if child.stdout.readline().strip() != "ready":
                 raise RuntimeError("a benchmark subscriber process failed to start")
         node = Node("bench_pub", context=context)
-        publisher = node.create_publisher(
-            get_message("nav_msgs/msg/OccupancyGrid"), GRID_TOPIC, QoSProfile(depth=10)
-        )
+        grid_type = get_message("nav_msgs/msg/OccupancyGrid")
+        publisher = node.create_publisher(grid_type, GRID_TOPIC, QoSProfile(depth=10))
         end = time.monotonic() + 20.0
         while publisher.get_subscription_count() < subscribers and time.monotonic() < end:
             time.sleep(0.05)
@@ -243,7 +244,7 @@ def _grid_latency(subscribers: int, messages: int, domain_id: int) -> list[float
         grid = _random_grid()
         next_time = time.monotonic()
         for _ in range(messages):
-            publisher.publish(grid_to_msg(grid, time.time_ns()))
+            publisher.publish(grid_to_msg(grid, time.time_ns(), message_class=grid_type))
             next_time += 0.1
             time.sleep(max(0.0, next_time - time.monotonic()))
         latencies: list[float] = []
