@@ -290,6 +290,24 @@ def _subtract_closeness(
         flights[4, j] -= proximity * power
 
 
+@_inlined
+def _five(near: np.ndarray, quantity: int) -> tuple[float, float, float, float, float]:
+    """Row ``quantity`` of ``near`` (the per-level table at 5 levels) as a tuple."""
+    return (
+        near[quantity, 0], near[quantity, 1], near[quantity, 2], near[quantity, 3],
+        near[quantity, 4],
+    )  # fmt: skip
+
+
+@_inlined
+def _pick(index: int, five: tuple[float, float, float, float, float]) -> float:
+    """``five[index]`` by comparisons, which vectorise (an indexed load would be a gather)."""
+    return (
+        five[0] if index == 0 else five[1] if index == 1 else five[2] if index == 2
+        else five[3] if index == 3 else five[4]
+    )  # fmt: skip
+
+
 @_kernel
 def _estimate_row(
     r: int,
@@ -327,6 +345,7 @@ def _estimate_row(
     to_cells = 1.0 / CELL_SIZE_M
     edge_limit = 0.5 - EDGE_GUARD_CELLS
     half_extent = GRID_SIZE * CELL_SIZE_M / 2.0
+    near = np.empty((6, 5))
     # State of every flip before the next decision: after the decision before it.
     before = flights[max(resume_at - 1, 0)]
     levels_before = flight_levels[max(resume_at - 1, 0)]
@@ -339,30 +358,49 @@ def _estimate_row(
         before[0, t], before[1, t] = math.cos(h0 + angle), math.sin(h0 + angle)
         before[2, t], before[3, t], before[4, t], before[5, t] = cx, cy, total, 0.0
         action = sequences[r, t]
+        # Every flip's bank level lies within 2 of the row's own level after decision t (a
+        # flip moves one action's level by 2, and the bank limit can only bring it closer),
+        # so the per-level tables narrow to 5 entries, picked without a look-up: the loop
+        # over the flips then runs on vector instructions.
+        centre = level_at[r, t]
+        for d in range(5):
+            near_level = min(max(centre + d - 2, 0), 2 * MAX_BANK_STEPS)
+            for q in range(6):
+                near[q, d] = arcs[near_level, q]
+        ahead5, left5, penalty5 = _five(near, _AHEAD), _five(near, _LEFT), _five(near, _PENALTY)
+        cos5, sin5 = _five(near, _COS_TURN), _five(near, _SIN_TURN)
+        bank_weight = weights[_W_BANK]
+        step = 2 * action - 1
+        top = 2 * MAX_BANK_STEPS
         for j in range(t + 1):
-            level = next_level[levels_before[j], action ^ 1 if j == t else action]
+            level_before = levels_before[j]
+            proposed = level_before + (-step if j == t else step)
+            level = proposed if 0 <= proposed <= top else level_before
+            d = level - centre + 2
+            ahead, left, penalty = _pick(d, ahead5), _pick(d, left5), _pick(d, penalty5)
+            cos_turn, sin_turn = _pick(d, cos5), _pick(d, sin5)
             cos_h, sin_h = before[0, j], before[1, j]
-            ahead, left = arcs[level, _AHEAD], arcs[level, _LEFT]
             cx = before[2, j] + (ahead * cos_h - left * sin_h)
             cy = before[3, j] + (ahead * sin_h + left * cos_h)
-            cos_turn, sin_turn = arcs[level, _COS_TURN], arcs[level, _SIN_TURN]
-            x, y = x0 + cx, y0 + cy
-            col_f, row_f = x * to_cells, y * to_cells
-            col_floor, row_floor = math.floor(col_f), math.floor(row_f)
+            col_f, row_f = (x0 + cx) * to_cells, (y0 + cy) * to_cells
             # A position this close to a cell edge may sit in the other cell exactly.
-            edge = before[5, j]
-            if max(abs(col_f - col_floor - 0.5), abs(row_f - row_floor - 0.5)) > edge_limit:
-                edge = 1.0
-            if max(abs(x - half_extent), abs(y - half_extent)) <= half_extent:
-                # On the map (its far edge included): cell indices 0..GRID_SIZE.
-                reward = table[e, int(row_floor), int(col_floor)]
-            else:
-                reward = _off_map_fire_term(distance_m, clear_count, e, x, y, weights)
-            reward -= weights[_W_BANK] * arcs[level, _PENALTY]
+            near_edge = (
+                max(abs(col_f - math.floor(col_f) - 0.5), abs(row_f - math.floor(row_f) - 0.5))
+                > edge_limit
+            )
             levels_after[j] = level
             after[0, j] = cos_h * cos_turn - sin_h * sin_turn
             after[1, j] = sin_h * cos_turn + cos_h * sin_turn
-            after[2, j], after[3, j], after[4, j], after[5, j] = cx, cy, before[4, j] + reward, edge
+            after[2, j], after[3, j] = cx, cy
+            after[4, j] = before[4, j] - bank_weight * penalty
+            after[5, j] = 1.0 if near_edge else before[5, j]
+        for j in range(t + 1):
+            x, y = x0 + after[2, j], y0 + after[3, j]
+            if max(abs(x - half_extent), abs(y - half_extent)) <= half_extent:
+                # On the map (its far edge included): cell indices 0..GRID_SIZE.
+                after[4, j] += table[e, math.floor(y * to_cells), math.floor(x * to_cells)]
+            else:
+                after[4, j] += _off_map_fire_term(distance_m, clear_count, e, x, y, weights)
         for k in range(others.shape[2]):
             _subtract_closeness(
                 after, t + 1, x0 - others[0, r, k, t], y0 - others[1, r, k, t], weights

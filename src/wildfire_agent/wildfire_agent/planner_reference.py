@@ -166,16 +166,20 @@ def plan_model(
     """
     used, env = np.unique(np.asarray(env, dtype=np.int64), return_inverse=True)
     lookups = [_lookups(maps.burning[e], maps.distance_m[e], weights) for e in used.tolist()]
+
+    def stacked(field: int) -> np.ndarray:
+        # One map (an agent node, a lone episode) needs no copy.
+        arrays = [kept[field] for kept in lookups]
+        return arrays[0][None] if len(arrays) == 1 else np.stack(arrays)
+
     return PlanModel(
         own=AircraftState(*(np.asarray(field)[:, None] for field in own)),
         env=env.reshape(-1).astype(np.int64),
         others_x=others_xy[0],
         others_y=others_xy[1],
-        table=np.stack([kept.table for kept in lookups]),
+        table=stacked(2),
         maps=FireFieldMaps(
-            burning=maps.burning[used],
-            distance_m=np.stack([kept.distance_m for kept in lookups]),
-            clear_count=np.stack([kept.clear_count for kept in lookups]),
+            burning=maps.burning[used], distance_m=stacked(0), clear_count=stacked(1)
         ),
         weights=weights,
     )
