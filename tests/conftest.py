@@ -3,7 +3,8 @@
 Every test that touches DDS must stay on this machine: Cyclone DDS is pinned to the
 loopback-only configuration in ``config/``, Fast DDS (real rclpy) to ``config/fastdds_loopback.xml``
 with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, and each pytest session picks its own
-``ROS_DOMAIN_ID`` so parallel runs (two developers, CI) never see each other's traffic.
+``ROS_DOMAIN_ID`` so parallel runs (two developers, CI, the two workers of ``scripts/test.sh``)
+never see each other's traffic.
 Child processes started by tests inherit these variables.
 
 The backend is explicit: ``WILDFIRE_ROS_BACKEND`` is ``rclpy`` where the real rclpy imports,
@@ -24,8 +25,12 @@ os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(FASTDDS_LOOPBACK_PROFILE)
 os.environ.pop("FASTDDS_DEFAULT_PROFILES_FILE", None)
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 # Domain ids 0..101 are safe on Linux for any participant count; 0 is the usual default,
-# so a test session uses 1..100, derived from its process id.
-os.environ["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 100)
+# so a test session uses 1..100, derived from its process id. Parallel workers of one session
+# (pytest-xdist, as scripts/test.sh runs it) each take a half of that range, so that two
+# workers can never share a domain.
+_worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+_half = int(_worker[2:]) % 2 if _worker.startswith("gw") and _worker[2:].isdigit() else 0
+os.environ["ROS_DOMAIN_ID"] = str(1 + 50 * _half + os.getpid() % 50)
 
 
 def _default_backend() -> str:
@@ -68,3 +73,22 @@ def dds_env() -> dict[str, str]:
     env = dict(os.environ)
     env["PYTHONUNBUFFERED"] = "1"
     return env
+
+
+# --- parallel workers (pytest-xdist) ---------------------------------------------------------
+
+SYSTEM_MODULES = {"test_multihost.py", "test_network_faults.py", "test_network_isolation.py"}
+"""Modules whose tests build network namespaces or start systems without the ``dds`` marker."""
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Put every test that starts a multi-process system (marker ``dds``, or a module of
+    ``SYSTEM_MODULES``) in one xdist group: under ``scripts/test.sh``'s two workers, systems
+    run one at a time on one worker while the other worker takes the in-process tests.
+
+    Two systems at once on two cores were measured to slow both past their timing margins
+    (a real-time run misses slots; a lockstep run once diverged from eval under that load),
+    so the parallelism is kept where it is harmless."""
+    for item in items:
+        if item.get_closest_marker("dds") is not None or item.path.name in SYSTEM_MODULES:
+            item.add_marker(pytest.mark.xdist_group("system"))

@@ -184,19 +184,23 @@ def _wait_for_line(log: Path, text: str, timeout: float = 60.0) -> None:
     raise AssertionError(f"{log.name}: no {text!r} within {timeout:.0f} s")
 
 
-def _pid_of(logs: Path, node: str, timeout: float = 20.0) -> int:
-    """PID of a node started by the launcher (found by its log file and command line)."""
+def _pid_of(launcher: int, logs: Path, node: str, timeout: float = 20.0) -> int:
+    """PID of a node started by the launcher ``launcher`` (found by its log file and its
+    command line among the launcher's children: another run may be flying beside this one)."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         out = subprocess.run(
-            ["ps", "-eww", "-o", "pid,args"], capture_output=True, text=True
+            ["ps", "-eww", "-o", "pid,ppid,args"], capture_output=True, text=True
         ).stdout
         if (logs / f"{node}.log").exists():
             for line in out.splitlines():
-                if node == "uav1" and "agent_node" in line and "__ns:=/uav1" in line:
-                    return int(line.split()[0])
-                if node == "belief_aggregator" and "belief_aggregator_node" in line:
-                    return int(line.split()[0])
+                pid, parent, args = [*line.split(None, 2), "", ""][:3]
+                if parent != str(launcher):
+                    continue
+                if node == "uav1" and "agent_node" in args and "__ns:=/uav1" in args:
+                    return int(pid)
+                if node == "belief_aggregator" and "belief_aggregator_node" in args:
+                    return int(pid)
         time.sleep(0.2)
     raise AssertionError(f"{node} did not start")
 
@@ -211,7 +215,7 @@ def test_killed_node_is_named_and_the_bag_is_finalized(
         tmp_path, dds_env, ["--realtime", "--duration", "60", "--record", str(bag)]
     )
     try:
-        pid = _pid_of(logs, "uav1")
+        pid = _pid_of(process.pid, logs, "uav1")
         time.sleep(2.0)
         nodes = children_of(process.pid)
         assert len(nodes) == 4
@@ -240,8 +244,8 @@ def test_respawned_nodes_carry_on(tmp_path: Path, dds_env: dict[str, str]) -> No
         # Mid-flight: the shared belief the new aggregator must take over is 3 s old.
         _wait_for_line(logs / "fire_simulator.log", "every reporter is ready")
         time.sleep(3.0)
-        os.kill(_pid_of(logs, "uav1"), signal.SIGKILL)
-        os.kill(_pid_of(logs, "belief_aggregator"), signal.SIGKILL)
+        os.kill(_pid_of(process.pid, logs, "uav1"), signal.SIGKILL)
+        os.kill(_pid_of(process.pid, logs, "belief_aggregator"), signal.SIGKILL)
         killed_ns = time.time_ns()
         stdout, stderr = process.communicate(timeout=60)
     finally:
