@@ -50,6 +50,12 @@ class Pilot:
         factory = make_policy(policy, rh_config)
         self.observation = factory.observation
         self.policy = factory.build([seed], [aircraft], n_aircraft, self.weights)
+        if isinstance(self.policy, RecedingHorizonController):
+            # Load the compiled planner now, before the run (numba and its cached kernels,
+            # ~0.6 s), not in the first real-time slot that plans.
+            from wildfire_agent.planner_compiled import compile_kernels
+
+            compile_kernels()
         self._maps: FireFieldMaps | None = None
         self._maps_key: object = None
 

@@ -113,15 +113,16 @@ def _plan_all(problems: list[PlanProblem], reference: bool) -> tuple[list[np.nda
     return plans, time.perf_counter() - tic
 
 
-def bench_receding_horizon(decisions: int = 100) -> dict[str, Any]:
+def bench_receding_horizon(decisions: int = 100, plan_decisions: int = 150) -> dict[str, Any]:
     """Planning cost: the compiled planner against the numpy reference on the same plans,
     and the controller's wall time per decision for one aircraft on one core.
 
-    The plans are those of ``rh`` in two 3-aircraft episodes (150 decisions each); a plan
-    is one aircraft's (a call re-planning several aircraft counts each). Each planner runs
-    once over all of them first, so that neither pays compilation or first-touch costs.
+    The plans are those of ``rh`` in two 3-aircraft episodes (``plan_decisions`` decisions
+    each); a plan is one aircraft's (a call re-planning several aircraft counts each). Each
+    planner runs once over all of them first, so that neither pays compilation or first-touch
+    costs.
     """
-    problems = capture_plans()
+    problems = capture_plans(decisions=plan_decisions)
     aircraft_plans = sum(len(problem.generators) for problem in problems)
     _plan_all(problems, reference=False)
     fast_plans, fast_s = _plan_all(problems, reference=False)

@@ -260,16 +260,17 @@ def _grid_latency(subscribers: int, messages: int, domain_id: int) -> list[float
         context.shutdown()
 
 
-def bench_dds(quick: bool = False) -> dict[str, float | int]:
-    """Run the DDS benchmarks; ``quick`` shortens them (about 10 s instead of 25 s)."""
+def bench_dds(quick: bool = False, smoke: bool = False) -> dict[str, float | int]:
+    """Run the DDS benchmarks; ``quick`` shortens them (about 10 s instead of 25 s), ``smoke``
+    runs each once at its smallest size (the figures mean nothing)."""
     from wildfire_ros.network import apply_local_network_defaults
 
     apply_local_network_defaults()
     domain_id = _bench_domain_id()
-    subscribers = 8
-    messages = 30 if quick else 100
+    subscribers = 2 if smoke else 8
+    messages = 5 if smoke else 30 if quick else 100
     latencies = np.asarray(_grid_latency(subscribers, messages, domain_id))
-    roundtrips = 100 if quick else 400
+    roundtrips = 10 if smoke else 100 if quick else 400
     _layer_roundtrip_s(10, domain_id)  # warm-up: type generation, first topic
     layer = _layer_roundtrip_s(roundtrips, domain_id)
     raw = _raw_roundtrip_s(roundtrips, domain_id)

@@ -110,16 +110,21 @@ def iteration_ms(approach: str, arch: str, repeats: int, device: str = "cpu") ->
 
 
 def train_speed(
-    approach: str, arch: str, iterations: int, directory: Path, device: str = "cpu"
+    approach: str,
+    arch: str,
+    iterations: int,
+    directory: Path,
+    device: str = "cpu",
+    prefill: int = 2_000,
 ) -> dict[str, float]:
-    """Samples/s and iterations/s of a short real training run."""
+    """Samples/s and iterations/s of a short real training run (after ``prefill`` samples)."""
     config = TrainConfig(
         approach=approach,
         arch=arch,
         iterations=iterations,
         num_envs=16,
         buffer_size=5_000,
-        learning_starts=2_000,
+        learning_starts=prefill,
         eval_every=0,
         checkpoint_every=0,
         eval_episodes=1,
@@ -137,28 +142,34 @@ def train_speed(
     }
 
 
-def bench_inference(quick: bool = False, device: str = "cpu") -> dict[str, Any]:
-    """Inference ms per decision and training speed, both approaches, one torch thread."""
+def bench_inference(
+    quick: bool = False, device: str = "cpu", smoke: bool = False
+) -> dict[str, Any]:
+    """Inference ms per decision and training speed, both approaches, one torch thread
+    (``smoke``: each measured once, at its smallest size)."""
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     figures: dict[str, Any] = {}
     try:
         with tempfile.TemporaryDirectory() as tmp:
             directory = Path(tmp)
-            repeats = 50 if quick else 300
+            repeats = 3 if smoke else 50 if quick else 300
             for approach, arch, key in VARIANTS:
                 path, source = _policy_file(approach, arch, directory)
                 figures[f"{key}_inference_ms"] = inference_ms(path, approach, repeats, device)
                 figures[f"{key}_model"] = source
             for approach, arch, key in VARIANTS:
                 figures[f"train_iteration_ms_{key}"] = iteration_ms(
-                    approach, arch, 5 if quick else 30, device
+                    approach, arch, 1 if smoke else 5 if quick else 30, device
                 )
             budgets = {"obs": 20, "belief": 3, "belief_fast": 8, "belief_lite": 20}
-            if quick:
+            if quick or smoke:
                 budgets = {"obs": 6, "belief": 1, "belief_fast": 2, "belief_lite": 6}
+            if smoke:
+                budgets = dict.fromkeys(budgets, 1)
+            prefill = 200 if smoke else 2_000
             for approach, arch, key in VARIANTS:
-                speed = train_speed(approach, arch, budgets[key], directory, device)
+                speed = train_speed(approach, arch, budgets[key], directory, device, prefill)
                 figures[f"train_samples_per_s_{key}"] = speed["samples_per_s"]
                 figures[f"train_iterations_per_s_{key}"] = speed["iterations_per_s"]
                 figures[f"env_samples_per_s_{key}"] = speed["env_samples_per_s"]

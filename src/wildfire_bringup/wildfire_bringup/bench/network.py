@@ -129,14 +129,15 @@ def ping_main(count: int, netem: str | None) -> dict[str, Any]:
     return figures
 
 
-def recovery_main(quick: bool) -> dict[str, Any]:
+def recovery_main(quick: bool, smoke: bool = False) -> dict[str, Any]:
     """Real time on 4 hosts: the aggregator's host cut off, then an agent's; recovery times."""
     from wildfire_bringup.bench.system import _spec
     from wildfire_bringup.launcher import Launcher
     from wildfire_bringup.netfaults import Partition
 
-    cut_s = 4.0 if quick else 10.0
-    spec = _spec(2, 2 * cut_s + 12.0, lockstep=False)
+    cut_s = 1.0 if smoke else 4.0 if quick else 10.0
+    # The second cut starts 6 s after the first ends, and recovery needs a few seconds after.
+    spec = _spec(2, 2 * cut_s + (10.0 if smoke else 12.0), lockstep=False)
     spec.hosts = 4
     spec.partitions = (Partition(1, 3.0, cut_s), Partition(2, cut_s + 6.0, cut_s))
     launcher = Launcher(spec)
@@ -171,7 +172,7 @@ def _child(backend: str, *args: str) -> dict[str, Any]:
     return result
 
 
-def bench_network(quick: bool = False) -> dict[str, Any]:
+def bench_network(quick: bool = False, smoke: bool = False) -> dict[str, Any]:
     """Both backends: per-hop latency clean and impaired, recovery after a heal."""
     from wildfire_bringup.bench.system import _backend_available
     from wildfire_bringup.hosts import namespaces_unavailable
@@ -179,7 +180,7 @@ def bench_network(quick: bool = False) -> dict[str, Any]:
     reason = namespaces_unavailable()
     if reason is not None:
         return {"skipped": reason}
-    count = "40" if quick else "200"
+    count = "3" if smoke else "40" if quick else "200"
     result: dict[str, Any] = {"netem": NETEM}
     for backend in BACKENDS:
         if not _backend_available(backend):
@@ -188,7 +189,8 @@ def bench_network(quick: bool = False) -> dict[str, Any]:
         for label, extra in (("clean", []), ("netem", ["--netem", NETEM])):
             figures = _child(backend, "--ping", count, *extra)
             result |= {f"{backend}_{label}_{key}": value for key, value in figures.items()}
-        figures = _child(backend, "--recovery", *(["--quick"] if quick else []))
+        sizes = [*(["--quick"] if quick else []), *(["--smoke"] if smoke else [])]
+        figures = _child(backend, "--recovery", *sizes)
         result |= {f"{backend}_{key}": value for key, value in figures.items()}
     return result
 
@@ -201,13 +203,16 @@ def main() -> None:
     parser.add_argument("--netem", help="impairment of the ping's hosts")
     parser.add_argument("--recovery", action="store_true", help="partition and heal a run")
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--smoke", action="store_true")
     args = parser.parse_args()
     if args.backend is not None:
         os.environ["WILDFIRE_ROS_BACKEND"] = args.backend
     if args.echo:
         echo_main()
         return
-    figures = ping_main(args.ping, args.netem) if args.ping else recovery_main(args.quick)
+    figures = (
+        ping_main(args.ping, args.netem) if args.ping else recovery_main(args.quick, args.smoke)
+    )
     print(json.dumps(figures))
 
 

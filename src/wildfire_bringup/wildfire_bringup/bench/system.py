@@ -46,13 +46,13 @@ def _spec(n: int, duration: float, lockstep: bool, seed: int = 1_000_000) -> Any
     )
 
 
-def measure_system(quick: bool = False) -> dict[str, Any]:
+def measure_system(quick: bool = False, smoke: bool = False) -> dict[str, Any]:
     """Lockstep speed-up (3 aircraft) and real-time missed deadlines (8 aircraft), this process's
-    backend."""
+    backend (``smoke``: 2 s of each, to check that they run)."""
     from wildfire_bringup.launcher import Launcher
     from wildfire_ros.runtime import BACKEND, rmw_implementation
 
-    duration = 20.0 if quick else 60.0
+    duration = 2.0 if smoke else 20.0 if quick else 60.0
     launcher = Launcher(_spec(3, duration, lockstep=True))
     monitor = launcher.run()
     ticks = monitor.status.tick if monitor.status else 0
@@ -74,12 +74,16 @@ def measure_system(quick: bool = False) -> dict[str, Any]:
             1e3 * launcher.flight_cpu_s / ticks if ticks else float("nan")
         ),
     }
-    realtime = Launcher(_spec(8, 10.0 if quick else 30.0, lockstep=False))
+    # (A smoke run starts 3 aircraft: 8 would take 10 s of node start-up to fly 2 s.)
+    realtime_aircraft = 3 if smoke else 8
+    realtime = Launcher(
+        _spec(realtime_aircraft, 2.0 if smoke else 10.0 if quick else 30.0, lockstep=False)
+    )
     monitor = realtime.run()
     decided = sum(v.get("decisions", 0) for v in monitor.deadlines.values())
     missed = sum(v.get("missed", 0) for v in monitor.deadlines.values())
     result |= {
-        "realtime_aircraft": 8,
+        "realtime_aircraft": realtime_aircraft,
         "realtime_decisions": decided,
         "realtime_missed": missed,
         "realtime_missed_fraction": missed / decided if decided else float("nan"),
@@ -100,7 +104,7 @@ def _backend_available(backend: str) -> bool:
     return True
 
 
-def bench_system(quick: bool = False) -> dict[str, Any]:
+def bench_system(quick: bool = False, smoke: bool = False) -> dict[str, Any]:
     """Both backends, one after the other, each in its own process; flat figures by backend."""
     result: dict[str, Any] = {}
     for backend in BACKENDS:
@@ -110,7 +114,7 @@ def bench_system(quick: bool = False) -> dict[str, Any]:
         command = [sys.executable, "-m", "wildfire_bringup.bench.system", "--backend", backend]
         env = {**os.environ, "WILDFIRE_ROS_BACKEND": backend}
         done = subprocess.run(
-            [*command, *(["--quick"] if quick else [])],
+            [*command, *(["--quick"] if quick else []), *(["--smoke"] if smoke else [])],
             env=env,
             capture_output=True,
             text=True,
@@ -136,10 +140,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description="Distributed-system figures of one backend.")
     parser.add_argument("--backend", choices=BACKENDS, required=True)
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--smoke", action="store_true")
     args = parser.parse_args()
     if os.environ.get("WILDFIRE_ROS_BACKEND") != args.backend:
         os.environ["WILDFIRE_ROS_BACKEND"] = args.backend
-    print(json.dumps(measure_system(args.quick)))
+    print(json.dumps(measure_system(args.quick, args.smoke)))
 
 
 if __name__ == "__main__":

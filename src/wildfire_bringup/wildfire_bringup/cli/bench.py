@@ -29,6 +29,20 @@ SUITES: dict[str, tuple[str, str, str]] = {
     ),
 }
 QUICK_CAPABLE = {"inference", "dds", "system", "network"}
+"""Suites that take ``quick`` and ``smoke`` themselves; the others get sizes below."""
+SIZES: dict[str, dict[str, dict[str, Any]]] = {
+    "quick": {
+        "fire": {"steps": 40},
+        "env": {"decisions": 100},
+        "rh": {"decisions": 50, "plan_decisions": 100},
+    },
+    "smoke": {
+        "fire": {"steps": 4, "batch_sizes": (16,)},
+        "env": {"decisions": 5, "batch_sizes": (8,)},
+        "rh": {"decisions": 10, "plan_decisions": 10},
+    },
+}
+"""Sizes of the suites that take them as numbers, for ``--quick`` and ``--smoke``."""
 DEVICE_CAPABLE = {"inference"}
 """Suites that time networks and so take ``--device``."""
 
@@ -47,6 +61,12 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         help=f"run only these suites ({', '.join(SUITES)})",
     )
     parser.add_argument("--quick", action="store_true", help="shorter runs, noisier figures")
+    parser.add_argument(
+        "--smoke",
+        action="store_true",
+        help="run every suite once at its smallest size, to check that it works (figures "
+        "meaningless; the tests run the whole bench so on both runtimes)",
+    )
     add_device_argument(parser, "cpu", "the inference and training figures")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
@@ -83,11 +103,10 @@ def run(args: argparse.Namespace) -> int:
         if not args.json:
             print(f"[{name}] {what} ...", flush=True)
         tic = time.perf_counter()
-        kwargs: dict[str, Any] = {"quick": True} if args.quick and name in QUICK_CAPABLE else {}
-        if args.quick and name == "fire":
-            kwargs = {"steps": 40}
-        if args.quick and name == "env":
-            kwargs = {"decisions": 100}
+        size = "smoke" if args.smoke else "quick" if args.quick else None
+        kwargs: dict[str, Any] = dict(SIZES.get(size or "", {}).get(name, {}))
+        if name in QUICK_CAPABLE:
+            kwargs |= {"quick": args.quick, "smoke": args.smoke}
         if name in DEVICE_CAPABLE:
             kwargs["device"] = str(device)
         figures = function(**kwargs)

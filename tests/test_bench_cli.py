@@ -1,0 +1,56 @@
+"""`wildfire bench` as the README shows it: every suite, no ``--only``, on the runtime of the
+test pass (``scripts/test.sh`` runs this once on real rclpy and once on the Cyclone layer).
+
+``--smoke`` runs each suite once at its smallest size: the figures mean nothing, but every
+code path of every suite runs, as it did when the dds suite crashed on rclpy's messages."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+# Not in the "system" group (conftest.py): its figures are never asserted, so it may share the
+# machine with a system test, and on its own worker it costs the suite no wall time.
+pytestmark = [
+    pytest.mark.dds,
+    pytest.mark.slow,
+    pytest.mark.timeout(600),
+    pytest.mark.xdist_group("bench"),
+]
+WILDFIRE = str(Path(sys.executable).parent / "wildfire")
+
+
+def test_bench_runs_every_suite_and_reports_its_figures(dds_env: dict[str, str]) -> None:
+    from wildfire_bringup.cli.bench import SUITES
+    from wildfire_bringup.hosts import namespaces_unavailable
+
+    result = subprocess.run(
+        [WILDFIRE, "bench", "--quick", "--smoke", "--json"],
+        env=dds_env,
+        capture_output=True,
+        text=True,
+        timeout=580,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "Traceback" not in result.stderr
+    figures = json.loads(result.stdout)
+    for suite in SUITES:
+        assert suite in figures, suite
+        assert not any(key.endswith("failed") for key in figures[suite]), figures[suite]
+        assert figures[suite]["bench_seconds"] > 0
+    if namespaces_unavailable() is None:
+        assert "skipped" not in figures["network"], figures["network"]
+    assert figures["fire"]["fire_env_steps_per_s"] > 0
+    assert figures["env"]["decisions_per_s"] > 0
+    assert figures["rh"]["plans_identical"] and figures["rh"]["plan_speedup"] > 0
+    assert figures["inference"]["obs_inference_ms"] > 0
+    assert figures["dds"]["grid_messages_received"] > 0
+    # The system suite measures both runtimes whatever the pass's own.
+    assert figures["system"]["dds_lockstep_speedup"] > 0
+    if importlib.util.find_spec("rclpy") is not None:
+        assert figures["system"]["rclpy_lockstep_speedup"] > 0
