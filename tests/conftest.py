@@ -13,6 +13,7 @@ else ``dds``; ``scripts/test.sh`` runs the ROS-facing tests a second time with `
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
@@ -94,3 +95,17 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             continue  # a test that chose its group itself
         if item.get_closest_marker("dds") is not None or item.path.name in SYSTEM_MODULES:
             item.add_marker(pytest.mark.xdist_group("system"))
+
+
+@pytest.fixture(autouse=True)
+def _system_tests_first(request: pytest.FixtureRequest) -> None:
+    """Under pytest-xdist, give the CPU to system tests first: their worker runs at nice -5,
+    an in-process test's at +10 (children inherit it). Beside a busy in-process test, a
+    multi-process system then runs as if alone, as its timing margins assume. Without root a
+    lower niceness cannot be set, and the priorities stay as they are."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        return
+    group = request.node.get_closest_marker("xdist_group")
+    system = group is not None and group.args[:1] == ("system",)
+    with contextlib.suppress(PermissionError):
+        os.setpriority(os.PRIO_PROCESS, 0, -5 if system else 10)

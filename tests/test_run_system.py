@@ -45,6 +45,21 @@ def run_cli(
     )
 
 
+def run_logged(
+    logs: Path, args: list[str], env: dict[str, str], timeout: float = 150
+) -> subprocess.CompletedProcess[str]:
+    """``run_cli`` of a ``wildfire run`` that keeps its nodes' logs in ``logs``; a run that
+    hangs fails with the end of every node's log (where each one stopped)."""
+    try:
+        return run_cli([*args, "--log-dir", str(logs)], env, timeout)
+    except subprocess.TimeoutExpired as error:
+        tails = [
+            f"--- {log.name}:\n" + "\n".join(log.read_text().splitlines()[-5:])
+            for log in sorted(logs.glob("*.log"))
+        ]
+        raise AssertionError(f"{error}\n" + "\n".join(tails)) from None
+
+
 @pytest.fixture(scope="module")
 def obs_policy(tmp_path_factory: pytest.TempPathFactory) -> Path:
     import torch
@@ -74,7 +89,9 @@ def test_lockstep_run_equals_evaluate(
     name = str(obs_policy) if policy == "obs" else policy
     seed = 5
     bag = tmp_path / "bag"
-    result = run_cli(
+    logs = tmp_path / "logs"
+    result = run_logged(
+        logs,
         [
             "run",
             "--aircraft",
