@@ -2,19 +2,23 @@
 # Set up .venv if needed, then run the whole test suite (slow tests included), then the
 # ROS-facing tests (marker `dds`) a second time on the other runtime backend: once on real
 # rclpy (Fast DDS) where its wheels are installed, once on our Cyclone DDS layer.
-# Each pass runs on two pytest-xdist workers (WILDFIRE_TEST_WORKERS, default 2): the suite is
-# mostly multi-process systems that keep one core busy, so two at a time fill two cores.
-# Tests that build network namespaces share one worker (xdist_group "netns").
+# WILDFIRE_TEST_WORKERS=2 runs each pass on two pytest-xdist workers: systems one at a time on
+# one, in-process tests on the other (tests/conftest.py). It cut the suite from ~15 to ~8.5 min
+# here, but made a rare lockstep start-up hang on real rclpy far more likely (README, Testing),
+# so the default is one worker.
 # Extra arguments go to both pytest runs, e.g. scripts/test.sh -m "not slow" -x
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-parallel=(-n "${WILDFIRE_TEST_WORKERS:-2}" --dist loadgroup)
+parallel=()
+if [ "${WILDFIRE_TEST_WORKERS:-1}" -gt 1 ]; then
+  parallel=(-n "$WILDFIRE_TEST_WORKERS" --dist loadgroup)
+fi
 if .venv/bin/python -c 'import rclpy' 2>/dev/null; then
-  WILDFIRE_ROS_BACKEND=rclpy .venv/bin/python -m pytest "${parallel[@]}" "$@"
+  WILDFIRE_ROS_BACKEND=rclpy .venv/bin/python -m pytest ${parallel[@]+"${parallel[@]}"} "$@"
   echo "test: the ROS-facing tests again, on the Cyclone DDS layer (WILDFIRE_ROS_BACKEND=dds)"
-  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest "${parallel[@]}" -m dds "$@"
+  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest ${parallel[@]+"${parallel[@]}"} -m dds "$@"
 else
   echo "test: rclpy does not import here: every test runs on the Cyclone DDS layer"
-  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest "${parallel[@]}" "$@"
+  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest ${parallel[@]+"${parallel[@]}"} "$@"
 fi
