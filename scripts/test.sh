@@ -17,7 +17,9 @@ fi
 if .venv/bin/python -c 'import rclpy' 2>/dev/null; then
   WILDFIRE_ROS_BACKEND=rclpy .venv/bin/python -m pytest ${parallel[@]+"${parallel[@]}"} "$@"
   echo "test: the ROS-facing tests again, on the Cyclone DDS layer (WILDFIRE_ROS_BACKEND=dds)"
-  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest ${parallel[@]+"${parallel[@]}"} -m dds "$@"
+  # This pass starts no rclpy node (the hang was never seen on the Cyclone layer): two workers.
+  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest -n "${WILDFIRE_TEST_WORKERS:-2}" \
+    --dist loadgroup -m dds "$@"
 else
   echo "test: rclpy does not import here: every test runs on the Cyclone DDS layer"
   WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest ${parallel[@]+"${parallel[@]}"} "$@"

@@ -106,8 +106,11 @@ def _backend_available(backend: str) -> bool:
 
 def bench_system(quick: bool = False, smoke: bool = False) -> dict[str, Any]:
     """Both backends, one after the other, each in its own process; flat figures by backend."""
+    from wildfire_ros.runtime import BACKEND
+
     result: dict[str, Any] = {}
-    for backend in BACKENDS:
+    # A smoke run checks the runtime in use only (the tests run it once on each).
+    for backend in (BACKEND,) if smoke else BACKENDS:
         if not _backend_available(backend):
             result[f"{backend}_skipped"] = "rclpy does not import (no ROS 2 Jazzy wheels here)"
             continue
