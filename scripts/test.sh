@@ -2,10 +2,10 @@
 # Set up .venv if needed, then run the whole test suite (slow tests included), then the
 # ROS-facing tests (marker `dds`) a second time on the other runtime backend: once on real
 # rclpy (Fast DDS) where its wheels are installed, once on our Cyclone DDS layer.
-# WILDFIRE_TEST_WORKERS=2 runs each pass on two pytest-xdist workers: systems one at a time on
-# one, in-process tests on the other (tests/conftest.py). It cut the suite from ~15 to ~8.5 min
-# here, but made a rare lockstep start-up hang on real rclpy far more likely (README, Testing),
-# so the default is one worker.
+# With two pytest-xdist workers, systems run one at a time on one and in-process tests on the
+# other (tests/conftest.py). The Cyclone-layer pass always does; WILDFIRE_TEST_WORKERS=2 makes
+# the rclpy pass do so too: it cut the suite from ~15 to ~8.5 min here, but made a rare lockstep
+# start-up hang on real rclpy far more likely (README, Testing), so that pass defaults to one.
 # Extra arguments go to both pytest runs, e.g. scripts/test.sh -m "not slow" -x
 set -euo pipefail
 cd "$(dirname "$0")/.."

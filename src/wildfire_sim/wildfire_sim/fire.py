@@ -28,6 +28,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import torch
+import torch.nn.functional as F
 
 from wildfire_sim.errors import FireConfigError
 from wildfire_sim.grid import GRID_SIZE
@@ -197,11 +199,6 @@ class BatchedFire:
         With ``window`` (rows, cols), only that part of the grid is evaluated; it must hold
         every burning cell with a margin of ``STENCIL_RADIUS`` (beyond it the pressure is 0).
         """
-        # torch loads on the first fire step, not with this module: `wildfire run`, the
-        # launcher and the nodes import it for its types and constants alone (1.3 s).
-        import torch
-        import torch.nn.functional as F
-
         rows, cols = window or (slice(None), slice(None))
         burning = torch.from_numpy(self._burning[rows, cols].astype(np.float32))
         # (h, w, E) memory seen as (1, E, h, w) is channels-last, the layout oneDNN's
