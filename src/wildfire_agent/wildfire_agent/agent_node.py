@@ -161,7 +161,8 @@ class AgentNode(Node):
             self.snapshot_pub.publish(system_codecs.snapshot_to_msg(snapshot))
 
     def startup_timer_callback(self) -> None:
-        """Say ready once the aggregator listens to our visits (their QoS is volatile)."""
+        """Say ready once the aggregator is known to listen to our visits (an orderly start:
+        visits are durable, so one written before DDS matched both ends still arrives)."""
         if self.ready_sent or self.count_subscribers(contract.VISIT.resolve(self.k)) < 1:
             return
         self.ready_sent = True

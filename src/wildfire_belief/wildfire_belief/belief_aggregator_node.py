@@ -100,16 +100,18 @@ class BeliefAggregatorNode(Node):
         self.ack_pub = contract_publisher(self, contract.ACK)
         self.request_pub = contract_publisher(self, contract.BELIEF_REQUEST)
         self.diagnostics_pub = contract_publisher(self, contract.DIAGNOSTICS)
+        # Deep, durable reader histories: visits (the writer keeps its last ten for a reader
+        # that matches late), statuses and the snapshots of many agents on one keyless topic.
+        latched = contract.QosSpec(depth=100, transient_local=True)
         for k in range(self.n):
             contract_subscription(
                 self,
                 contract.VISIT,
                 functools.partial(self.visit_callback, k),
                 aircraft=k,
-                qos=contract.QosSpec(depth=100),
+                qos=latched,
                 guard=self.input_guard,
             )
-        latched = contract.QosSpec(depth=100, transient_local=True)
         contract_subscription(
             self,
             contract.EPISODE,
@@ -117,7 +119,6 @@ class BeliefAggregatorNode(Node):
             qos=latched,
             guard=self.input_guard,
         )
-        # Many agents answer on one keyless topic: keep them all.
         contract_subscription(
             self,
             contract.BELIEF_SNAPSHOT,

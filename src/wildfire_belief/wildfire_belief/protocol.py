@@ -134,7 +134,8 @@ class AggregatorProtocol:
     # --- inputs -------------------------------------------------------------------------------
 
     def on_startup(self, visits_matched: Callable[[], bool]) -> list[Output]:
-        """Start once every agent's visit publisher is matched (visits are volatile).
+        """Start once every agent's visit publisher is known (an orderly start: the visits
+        themselves are durable, so none is lost to the order in which DDS matches endpoints).
 
         Not before the (latched) episode status is in: it tells a fresh start (waiting or
         tick 0) from a restart into a running episode, which first recovers the belief.

@@ -17,7 +17,7 @@ topic                      type                                QoS (reliability,
 ``/uavK/odom``             ``nav_msgs/msg/Odometry``           reliable, volatile, 10
 ``/uavK/bank_cmd``         ``std_msgs/msg/Float64``            reliable, volatile, 10
 ``/uavK/action``           ``std_msgs/msg/Int8``               reliable, transient-local, 10
-``/uavK/visit``            ``nav_msgs/msg/OccupancyGrid``      reliable, volatile, 10
+``/uavK/visit``            ``nav_msgs/msg/OccupancyGrid``      reliable, transient-local, 10
 ``/uavK/state``            ``std_msgs/msg/Float64MultiArray``  reliable, volatile, 10
 ``/diagnostics``           ``diagnostic_msgs/msg/DiagnosticArray``  reliable, volatile, 100
 =========================  ==================================  ===============================
@@ -30,7 +30,8 @@ see the entries below and ``docs/ros2_layer.md``.
 
 Maps are latched (transient-local, depth 1) so a node or ``wildfire topic echo`` started late
 still receives the current map, as with a ROS 1 latched topic. Per-aircraft streams keep 10
-messages so a briefly busy subscriber (the belief aggregator) loses no visit in lockstep mode.
+messages so a briefly busy subscriber loses none; visits, actions and stamped states are also
+transient-local, so a subscriber whose DDS reader matched late still gets the recent ones.
 The encodings of each topic are documented in :mod:`wildfire_msgs_py.codecs`.
 """
 
@@ -64,6 +65,8 @@ class QosSpec:
 LATCHED = QosSpec(depth=1, reliable=True, transient_local=True)
 STREAM = QosSpec(depth=10, reliable=True, transient_local=False)
 CLOCK_QOS = QosSpec(depth=1, reliable=True, transient_local=False)
+#: Latched with a history, so a late joiner gets the recent per-tick messages it may need.
+LATCHED_HISTORY = QosSpec(depth=10, reliable=True, transient_local=True)
 
 
 @dataclass(frozen=True)
@@ -149,7 +152,12 @@ BANK_CMD = TopicSpec(
 VISIT = TopicSpec(
     "visit",
     "nav_msgs/msg/OccupancyGrid",
-    STREAM,
+    # Latched with a history: the aggregator merges tick k only once every visit of k is in,
+    # and DDS discovery is not symmetric. The agent's writer can match the aggregator's reader
+    # before the reader matches the writer (ROS graph counts match sooner still); a volatile
+    # visit written in that gap was lost for good and the lockstep barrier waited forever.
+    # Durable visits reach the aggregator whichever side matches last.
+    LATCHED_HISTORY,
     True,
     "window around the aircraft: 100/0 truth in visited cells, -1 outside the 100 m disc",
 )
@@ -175,8 +183,6 @@ DIAGNOSTICS = TopicSpec(
 # --- system topics (lockstep protocol, exact inputs of the agents, belief recovery) ----------
 #: Reliable and latched, one message per writer: the last acknowledgement of every reporter.
 ACK_QOS = QosSpec(depth=1, reliable=True, transient_local=True)
-#: Latched with a history, so a late joiner gets the recent per-tick messages it may need.
-LATCHED_HISTORY = QosSpec(depth=10, reliable=True, transient_local=True)
 
 ACTION = TopicSpec(
     "action",
