@@ -8,9 +8,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
+workers="${WILDFIRE_TEST_WORKERS:-2}"
 parallel=()
-if [ "${WILDFIRE_TEST_WORKERS:-2}" -gt 1 ]; then
-  parallel=(-n "$WILDFIRE_TEST_WORKERS" --dist loadgroup)
+if [ "$workers" -gt 1 ]; then
+  parallel=(-n "$workers" --dist loadgroup)
 fi
 if .venv/bin/python -c 'import rclpy' 2>/dev/null; then
   WILDFIRE_ROS_BACKEND=rclpy .venv/bin/python -m pytest ${parallel[@]+"${parallel[@]}"} "$@"

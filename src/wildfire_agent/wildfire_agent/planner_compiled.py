@@ -7,8 +7,8 @@ whether it beats the row's score. Scoring all T flips exactly, as the reference 
 a sine, a cosine and, per other aircraft, a ``hypot`` and an ``exp`` for every one of the
 T (T + 1) / 2 decisions that the flips change. So a sweep runs in two passes:
 
-1. **Estimate** every flip cheaply (``planner_kernels._estimate_row``): the heading's cosine and sine
-   are carried by rotating them with per-level tables, and the proximity term is a
+1. **Estimate** every flip cheaply (``planner_kernels._estimate_row``): the heading's cosine
+   and sine are carried by rotating them with per-level tables, and the proximity term is a
    polynomial of the range, in a loop the compiler turns into vector instructions. An
    estimate lies within ``ESTIMATE_TOLERANCE`` of the exact score (measured errors are
    below 1e-12), unless its flight passes within 1e-6 m of a cell edge, where the fire
@@ -174,7 +174,7 @@ class _Search:
         self.estimate = np.empty((count, horizon))
         self.unsure = np.empty((count, horizon), np.bool_)
         self.row_tasks = np.ones(count, np.int64)
-        # Each row's flips as last estimated (see ``planner_kernels._estimate_row``), and its last flip.
+        # Each row's flips as last estimated (``planner_kernels._estimate_row``), its last flip.
         self.flights = np.empty((count, horizon, 6, horizon))
         self.flight_levels = np.empty((count, horizon, horizon), np.int64)
         self.last_flip = np.full(count, -1, np.int64)

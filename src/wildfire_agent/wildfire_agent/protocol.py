@@ -43,21 +43,18 @@ from wildfire_msgs_py.input_guard import (
 )
 from wildfire_msgs_py.system_codecs import BeliefSnapshot, EpisodeStatus
 from wildfire_sim.episode import (
+    AHEAD_TICKS,
     DECISION_PERIOD_NS,
-    DECISIONS_PER_FIRE_STEP,
+    FIRE_STEP_NS,
+    REALTIME_AHEAD_NS,
     Mode,
     fire_step_tick,
+    stamp_ceiling_ns,
 )
 
 PERIOD_S = DECISION_PERIOD_NS / 1e9
 DEADLINE_EVERY_DECISIONS = 10
 """Deadline statistics go out at 1 Hz: every message costs each node a publish."""
-FIRE_STEP_NS = DECISIONS_PER_FIRE_STEP * DECISION_PERIOD_NS
-AHEAD_TICKS = 2 * DECISIONS_PER_FIRE_STEP
-"""How far past the announced tick an honest input can be stamped (fire maps run one fire
-step ahead at most; statuses, states and beliefs a tick or two): anything further is refused."""
-REALTIME_AHEAD_NS = 10_000_000_000
-"""Real time: stamps more than 10 s past the node clock are refused (clock skew allowance)."""
 REQUEST_ANSWER_PERIOD_S = 1.0
 """A belief snapshot (160 kB) goes out at most once a second, whoever asks."""
 BELIEFS_KEPT = 4
@@ -252,7 +249,7 @@ class AgentProtocol:
         return self.now_ns() + REALTIME_AHEAD_NS
 
     def status_ceiling_ns(self) -> int:
-        return (max(self.status_tick, 0) + AHEAD_TICKS) * DECISION_PERIOD_NS
+        return stamp_ceiling_ns(self.status_tick)
 
     @classmethod
     def from_parameters(cls, p: Mapping[str, Any], now_ns: Callable[[], int]) -> AgentProtocol:
@@ -442,7 +439,6 @@ class AgentProtocol:
 
 
 __all__ = [
-    "AHEAD_TICKS",
     "MAX_BANK_RAD",
     "PERIOD_S",
     "AckOut",

@@ -29,15 +29,17 @@ from wildfire_belief.aggregator import BeliefAggregator
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
 from wildfire_msgs_py.input_guard import TickInbox, check_status_tick
 from wildfire_msgs_py.system_codecs import READY_SUFFIX, BeliefSnapshot, EpisodeStatus
-from wildfire_sim.episode import DECISION_PERIOD_NS, DECISIONS_PER_FIRE_STEP, Mode
+from wildfire_sim.episode import (
+    AHEAD_TICKS,
+    DECISION_PERIOD_NS,
+    REALTIME_AHEAD_NS,
+    Mode,
+    stamp_ceiling_ns,
+)
 
 NAME = "belief_aggregator"
 STATUS_EVERY_TICKS = 10
 """The node's status goes to ``/diagnostics`` once a second of flight."""
-AHEAD_TICKS = 2 * DECISIONS_PER_FIRE_STEP
-"""Visits stamped further past the announced tick than this are refused (lockstep)."""
-REALTIME_AHEAD_NS = 10_000_000_000
-"""Real time: visits stamped more than 10 s past the node clock are refused."""
 
 
 class BeliefOut(NamedTuple):
@@ -182,7 +184,7 @@ class AggregatorProtocol:
             inbox.discard_below(stamp + 1)  # each visit is merged once: older stamps are replays
             self.realtime_queue.append((stamp, window))
             return []
-        inbox.ceiling = (max(self.status_tick, 0) + AHEAD_TICKS) * DECISION_PERIOD_NS
+        inbox.ceiling = stamp_ceiling_ns(self.status_tick)
         inbox.accept(stamp, window)
         return self.merge_lockstep()
 

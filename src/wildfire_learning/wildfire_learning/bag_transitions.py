@@ -59,11 +59,13 @@ from wildfire_msgs_py import codecs, contract
 from wildfire_msgs_py.errors import WildfireRosError
 from wildfire_msgs_py.system_codecs import stamped_state_from_msg
 from wildfire_ros.bag import bag_info, read_messages
-from wildfire_sim.episode import DECISION_PERIOD_NS, DECISIONS_PER_FIRE_STEP, fire_at_border
+from wildfire_sim.episode import (
+    DECISION_PERIOD_NS,
+    DECISIONS_PER_FIRE_STEP,
+    FIRE_STEP_NS,
+    fire_at_border,
+)
 from wildfire_sim.grid import GRID_SIZE
-
-FIRE_STEP_NS = DECISIONS_PER_FIRE_STEP * DECISION_PERIOD_NS
-"""Fire step period in nanoseconds (stamps of the fire maps)."""
 
 
 class Recording(NamedTuple):

@@ -35,13 +35,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from wildfire_msgs_py.contract import MAP_FRAME, base_link_frame
+from wildfire_msgs_py.contract import CELL_SIZE_M, MAP_FRAME, base_link_frame
 from wildfire_msgs_py.errors import MessageFieldError
 
-GRID_SIZE = 100
-"""Cells per side of the fire grid."""
-CELL_SIZE_M = 10.0
-"""Side of a cell in metres."""
 FIRE_BURNING = 100
 FIRE_NOT_BURNING = 0
 UNKNOWN_CELL = -1
@@ -421,11 +417,9 @@ def diagnostics_from_msg(msg: Any) -> list[NodeStatus]:
 __all__ = [
     "AGE_MAX_S",
     "AIRSPEED_MPS",
-    "CELL_SIZE_M",
     "FIRE_BURNING",
     "FIRE_NOT_BURNING",
     "GRAVITY_MPS2",
-    "GRID_SIZE",
     "STATE_FIELDS",
     "UNKNOWN_CELL",
     "AircraftPose",

@@ -46,6 +46,10 @@ if TYPE_CHECKING:
 
 #: Frame of every grid and pose: x east, y north, origin at the grid's south-west corner.
 MAP_FRAME = "map"
+#: Cells per side of every map-sized grid (the fire, the fuel, the belief and its ages).
+GRID_SIZE = 100
+#: Side of a cell in metres (an OccupancyGrid's ``resolution``).
+CELL_SIZE_M = 10.0
 #: Prefix of an aircraft namespace; aircraft ``k`` lives in ``/uav{k}``.
 AIRCRAFT_PREFIX = "uav"
 

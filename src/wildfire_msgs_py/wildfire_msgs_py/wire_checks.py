@@ -18,10 +18,8 @@ from typing import Any
 import numpy as np
 
 from wildfire_msgs_py.codecs import (
-    CELL_SIZE_M,
     FIRE_BURNING,
     FIRE_NOT_BURNING,
-    GRID_SIZE,
     STATE_FIELDS,
     UNKNOWN_CELL,
     VisitWindow,
@@ -30,7 +28,7 @@ from wildfire_msgs_py.codecs import (
     time_from_msg,
     visit_from_msg,
 )
-from wildfire_msgs_py.contract import MAP_FRAME
+from wildfire_msgs_py.contract import CELL_SIZE_M, GRID_SIZE, MAP_FRAME
 from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
 from wildfire_msgs_py.system_codecs import (
     EPISODE_NAME,

@@ -35,6 +35,14 @@ DECISIONS_PER_FIRE_STEP = 25
 DECISION_PERIOD_NS = 100_000_000
 """One decision is 0.1 s; tick ``k`` happens at ``k * DECISION_PERIOD_NS`` of sim time."""
 NS_PER_S = 1_000_000_000
+FIRE_STEP_NS = DECISIONS_PER_FIRE_STEP * DECISION_PERIOD_NS
+"""A fire step in nanoseconds (the stamps of successive fire maps)."""
+AHEAD_TICKS = 2 * DECISIONS_PER_FIRE_STEP
+"""Lockstep: how far past the announced tick an honest input can be stamped (fire maps run
+one fire step ahead at most; statuses, states, visits and beliefs a tick or two). Every
+node refuses anything further, so a forged far-future stamp cannot hold an inbox slot."""
+REALTIME_AHEAD_NS = 10 * NS_PER_S
+"""Real time: stamps more than 10 s past the node clock are refused (clock skew allowance)."""
 
 
 class Mode(StrEnum):
@@ -70,6 +78,12 @@ def fire_at_border(burning: np.ndarray, border_cells: int) -> np.ndarray:
 def fire_step_tick(tick: int) -> int:
     """Decision index of the fire step whose map holds at decision ``tick``."""
     return (tick // DECISIONS_PER_FIRE_STEP) * DECISIONS_PER_FIRE_STEP
+
+
+def stamp_ceiling_ns(status_tick: int) -> int:
+    """Lockstep: the newest stamp an honest input can carry once tick ``status_tick`` (-1:
+    none yet) is announced."""
+    return (max(status_tick, 0) + AHEAD_TICKS) * DECISION_PERIOD_NS
 
 
 def initial_fire(
@@ -146,11 +160,14 @@ class FireEpisode:
 
 
 __all__ = [
+    "AHEAD_TICKS",
     "DECISIONS_PER_FIRE_STEP",
     "DECISION_PERIOD_NS",
     "EPISODE_DEFAULTS",
+    "FIRE_STEP_NS",
     "MODES",
     "NS_PER_S",
+    "REALTIME_AHEAD_NS",
     "EpisodeDefaults",
     "FireEpisode",
     "Mode",
@@ -158,4 +175,5 @@ __all__ = [
     "fire_at_border",
     "fire_step_tick",
     "initial_fire",
+    "stamp_ceiling_ns",
 ]

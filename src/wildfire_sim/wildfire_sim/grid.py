@@ -9,10 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-GRID_SIZE = 100
-"""Cells per side of the map."""
-CELL_SIZE_M = 10.0
-"""Edge length of one cell in metres."""
+# The map's cells are the wire contract's: the simulator and the messages share one layout.
+from wildfire_msgs_py.contract import CELL_SIZE_M, GRID_SIZE
+
 MAP_SIZE_M = GRID_SIZE * CELL_SIZE_M
 """Edge length of the map in metres (1 km)."""
 
