@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import subprocess
 import sys
 from pathlib import Path
@@ -41,3 +42,75 @@ def test_interface_package_does_not_import_the_runtime() -> None:
         if "import" in line and "wildfire_ros" in line
     ]
     assert offenders == []
+
+
+def src_modules() -> dict[str, Path]:
+    """Every module of the packages under src/ by dotted name (a package's ``__init__`` is the
+    package's own name)."""
+    modules: dict[str, Path] = {}
+    for init in sorted((ROOT / "src").glob("*/*/__init__.py")):
+        top = init.parent
+        for path in sorted(top.rglob("*.py")):
+            parts = path.relative_to(top.parent).with_suffix("").parts
+            modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return modules
+
+
+def imported_modules(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
+    """The modules of ``modules`` that ``name`` imports anywhere: at the top, under ``if
+    TYPE_CHECKING:``, inside functions. ``from a.b import c`` is the module ``a.b.c`` when
+    that is one, else ``a.b``; a name outside ``modules`` (numpy, ...) counts as its longest
+    prefix inside them, if any."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    targets: list[str] = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            targets += [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:  # relative: level 1 is this module's package
+                anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join([*anchor, base] if base else anchor)
+            for alias in node.names:
+                submodule = f"{base}.{alias.name}"
+                targets.append(submodule if submodule in modules else base)
+    found: set[str] = set()
+    for target in targets:
+        while target and target not in modules:
+            target = target.rpartition(".")[0]
+        if target and target != name:
+            found.add(target)
+    return found
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str]:
+    """One import cycle of ``graph`` as ``[a, b, ..., a]``, or ``[]`` when it has none."""
+    done: set[str] = set()
+    path: list[str] = []
+    on_path: set[str] = set()
+
+    def visit(module: str) -> list[str]:
+        path.append(module)
+        on_path.add(module)
+        for target in sorted(graph[module]):
+            if target in on_path:
+                return [*path[path.index(target) :], target]
+            if target not in done and (cycle := visit(target)):
+                return cycle
+        on_path.discard(path.pop())
+        done.add(module)
+        return []
+
+    for module in sorted(graph):
+        if module not in done and (cycle := visit(module)):
+            return cycle
+    return []
+
+
+def test_no_import_cycles() -> None:
+    """No module under src/ imports itself back, not even only while type checking: a layer
+    that a lower one needs (a config, a counter) belongs below both."""
+    modules = src_modules()
+    graph = {name: imported_modules(name, path, modules) for name, path in modules.items()}
+    cycle = find_cycle(graph)
+    assert cycle == [], "import cycle: " + " -> ".join(cycle)

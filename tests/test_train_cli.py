@@ -256,7 +256,7 @@ def test_a_resumed_run_keeps_the_behaviour_it_was_started_with() -> None:
     from dataclasses import fields
 
     from wildfire_bringup.cli.train import build_config
-    from wildfire_learning.dqn import TrainConfig
+    from wildfire_learning.train_config import TrainConfig
 
     nothing_given = argparse.Namespace(**{f.name: None for f in fields(TrainConfig)})
     fresh = build_config(nothing_given, None)

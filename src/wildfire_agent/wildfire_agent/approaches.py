@@ -20,7 +20,7 @@ import numpy as np
 from wildfire_agent import sensor
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.rewards import ObservationRewardWeights, proximity_sum
-from wildfire_belief.ego_image import ego_images
+from wildfire_belief.ego_image import IMAGE_SIZE, ego_images
 
 
 class Approach(StrEnum):
@@ -35,6 +35,12 @@ class Approach(StrEnum):
 
 APPROACHES: tuple[str, ...] = tuple(Approach)
 """The approaches' names, in the order commands list them."""
+IMAGE_SHAPES: dict[str, tuple[int, int, int]] = {
+    Approach.OBS: (1, sensor.N_BEARINGS, sensor.N_RANGES),
+    Approach.BELIEF: (2, IMAGE_SIZE, IMAGE_SIZE),
+}
+"""Image (C, H, W) each approach gives an aircraft: the sensor image, or the ego belief and
+its ages (:func:`sensor_images`, :func:`belief_images`)."""
 
 
 def sensor_images(truth: np.ndarray, pose: AircraftState) -> np.ndarray:
@@ -59,4 +65,11 @@ def belief_rewards(
     return np.asarray(team_reward)[:, None] - proximity_weight * proximity
 
 
-__all__ = ["APPROACHES", "Approach", "belief_images", "belief_rewards", "sensor_images"]
+__all__ = [
+    "APPROACHES",
+    "IMAGE_SHAPES",
+    "Approach",
+    "belief_images",
+    "belief_rewards",
+    "sensor_images",
+]

@@ -20,16 +20,15 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from wildfire_agent.approaches import Approach
+from wildfire_agent.approaches import IMAGE_SHAPES, Approach
+from wildfire_agent.pairwise import STATE_SIZE
 from wildfire_learning.errors import LearningError
 from wildfire_learning.network import QNetwork
 
 ARCHITECTURES = ("paper", "fast", "lite")
 POOLING = {"fast": 2, "lite": 4}
 """Average-pool factor of the input image of each downsampled architecture."""
-IMAGE_SHAPES = {"obs": (1, 30, 40), "belief": (2, 100, 100)}
-"""Network input image (C, H, W) of each approach."""
-STATE_SHAPE_K2 = (1, 5)
+STATE_SHAPE_K2 = (1, STATE_SIZE)
 """Pairwise-state shape of one ownship with one other aircraft (training uses 2 aircraft)."""
 
 
@@ -60,4 +59,4 @@ def build_q_network(approach: str, arch: str = "paper") -> nn.Module:
     return QNetwork(shape)
 
 
-__all__ = ["ARCHITECTURES", "IMAGE_SHAPES", "POOLING", "DownsampledQNetwork", "build_q_network"]
+__all__ = ["ARCHITECTURES", "POOLING", "DownsampledQNetwork", "build_q_network"]

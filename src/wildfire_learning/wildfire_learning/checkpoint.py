@@ -5,66 +5,27 @@ counters (:class:`TrainState`), both networks, the optimiser and both random sta
 ``replay.npz`` the replay. Each is written to a temporary file and renamed, so an interrupted
 save never leaves half a file. (The learning curve beside them is ``plots.write_curve``'s.)
 
-Old checkpoints keep training the way they started: a config saved before a hyperparameter
-existed reads it as the value that reproduces the old behaviour (:data:`PRE_EXTENSION_VALUES`).
+The config a resumed run trains with is ``train_config.resolve_config``'s merge of the saved
+one and the values given (old checkpoints keep training the way they started).
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import torch
 from torch import nn
 
 from wildfire_learning.errors import LearningError
-from wildfire_learning.experience import replay_shapes
 from wildfire_learning.replay import ReplayBuffer
-
-if TYPE_CHECKING:  # dqn imports this module
-    from wildfire_learning.dqn import TrainConfig
+from wildfire_learning.train_config import TrainConfig, TrainState, replay_shapes, resolve_config
 
 CHECKPOINT_FILE = "checkpoint.pt"
 REPLAY_FILE = "replay.npz"
 CHECKPOINT_FORMAT = "wildfire-dqn-checkpoint/1"
-PRE_EXTENSION_VALUES: dict[str, Any] = {
-    "n_step": 1,
-    "reward_scale": 1.0,
-    "explore_hold": 1,
-    "double_q": False,
-}
-"""Values of fields added after the first runs, for configs saved before them: a resumed run
-keeps training the way it started (one-step, unscaled, plain epsilon-greedy, single Q)."""
-
-
-@dataclass
-class TrainState:
-    """Counters of a run (saved in checkpoints)."""
-
-    samples: int = 0
-    """Aircraft decisions taken in training episodes."""
-    iterations: int = 0
-    """Gradient steps done."""
-    episodes: int = 0
-    """Training episodes started (the next training seed)."""
-    wall_time_s: float = 0.0
-    """Wall time spent in this run over all sessions."""
-    train_wall_s: float = 0.0
-    """Wall time of the training phase (after the prefill)."""
-    train_samples: int = 0
-    """Samples taken during the training phase."""
-    last_loss: float = float("nan")
-    curve: list[dict[str, float]] = field(default_factory=list)
-    """Learning-curve rows (``plots.CURVE_FIELDS``)."""
-    initialised_from: dict[str, Any] | None = None
-    """The exported policy a fine-tuning run started from (kept across ``--resume``)."""
-
-    @property
-    def last_score(self) -> float | None:
-        """Score of the latest evaluation, if any."""
-        return self.curve[-1]["score_mean"] if self.curve else None
 
 
 def save_checkpoint(
@@ -110,26 +71,20 @@ def load_checkpoint(run_dir: Path) -> dict[str, Any]:
     return payload
 
 
-def upgrade_saved_config(saved: dict[str, Any]) -> dict[str, Any]:
-    """A checkpoint's config with the fields it predates set to their original behaviour."""
-    return {k: v for k, v in PRE_EXTENSION_VALUES.items() if k not in saved} | saved
-
-
 def resume(
     run_dir: Path,
+    payload: dict[str, Any],
     config: TrainConfig,
     q_network: nn.Module,
     target_network: nn.Module,
     optimizer: torch.optim.Optimizer,
     rng: np.random.Generator,
 ) -> tuple[TrainState, ReplayBuffer]:
-    """Load the checkpoint of ``run_dir`` into the networks, optimiser and random states;
-    return its counters and replay. The network (and so the replay's shapes) must be the one
-    the checkpoint trained."""
-    payload = load_checkpoint(run_dir)
-    # Fields a config predates read as their defaults (the values they were run with).
-    saved = {f.name: f.default for f in fields(config)} | payload["config"]
-    trained = (saved["approach"], saved["arch"], saved["n_aircraft"])
+    """Load ``payload``, the checkpoint of ``run_dir`` (:func:`load_checkpoint`), into the
+    networks, optimiser and random states; return its counters and replay. The network (and
+    so the replay's shapes) must be the one the checkpoint trained."""
+    saved = resolve_config(payload["config"], {})
+    trained = (saved.approach, saved.arch, saved.n_aircraft)
     if trained != (config.approach, config.arch, config.n_aircraft):
         raise LearningError(
             f"checkpoint {run_dir / CHECKPOINT_FILE}: incompatible (trained {trained[0]}/"
@@ -172,12 +127,9 @@ def load_policy_weights(model: nn.Module, path: Path, approach: str, arch: str) 
 __all__ = [
     "CHECKPOINT_FILE",
     "CHECKPOINT_FORMAT",
-    "PRE_EXTENSION_VALUES",
     "REPLAY_FILE",
-    "TrainState",
     "load_checkpoint",
     "load_policy_weights",
     "resume",
     "save_checkpoint",
-    "upgrade_saved_config",
 ]

@@ -1,6 +1,7 @@
 """Deep Q-learning of the pairwise Q-network (docs/model.md, Q-network), in the shape of
-CleanRL's ``dqn.py``: the hyperparameters (:class:`TrainConfig`; every field is a ``wildfire
-train`` option, its help in the field's metadata) and one explicit loop (:func:`train`).
+CleanRL's ``dqn.py``: the hyperparameters (``train_config.TrainConfig``; every field is a
+``wildfire train`` option, its help in the field's metadata) and one explicit loop
+(:func:`train`).
 
 ``num_envs`` episodes step together, every aircraft's action from one batched forward pass,
 and every aircraft's transition goes to one replay (the network is shared), prefilled with
@@ -49,8 +50,8 @@ Decisions beyond the paper (documented here, reported in the card):
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
-from dataclasses import dataclass, field, fields, replace
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -59,222 +60,27 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from wildfire_agent.approaches import APPROACHES
 from wildfire_agent.policies import greedy_actions
-from wildfire_learning.architectures import ARCHITECTURES, IMAGE_SHAPES, build_q_network
-from wildfire_learning.checkpoint import TrainState, load_policy_weights, resume, save_checkpoint
-from wildfire_learning.env import EnvConfig
-from wildfire_learning.errors import LearningError
-from wildfire_learning.evaluate import VALIDATION_SEED_BASE
+from wildfire_learning.architectures import build_q_network
+from wildfire_learning.checkpoint import (
+    load_checkpoint,
+    load_policy_weights,
+    resume,
+    save_checkpoint,
+)
 from wildfire_learning.experience import TrainingEpisodes, bag_sequences, new_replay
 from wildfire_learning.export import export_policy
 from wildfire_learning.model_card import init_summary, policy_card
 from wildfire_learning.progress import Session, Status, max_rss_mb, report_status
 from wildfire_learning.replay import ReplayBuffer
+from wildfire_learning.train_config import (
+    RunOptions,
+    TrainConfig,
+    TrainState,
+    given_values,
+    resolve_config,
+)
 from wildfire_learning.validation import evaluate_and_export
-from wildfire_sim.episode import EPISODE_DEFAULTS
-
-EVAL_SEED_BASE = VALIDATION_SEED_BASE
-"""Evaluation seeds during training start here; training seeds stay below."""
-
-
-def linear_schedule(start_e: float, end_e: float, duration: int, t: int) -> float:
-    """Epsilon at sample ``t``: linear from ``start_e`` to ``end_e`` over ``duration``."""
-    if duration <= 0:
-        return end_e
-    slope = (end_e - start_e) / duration
-    return max(slope * t + start_e, end_e)
-
-
-def hyperparameter(default: Any, help: str, **option: Any) -> Any:
-    """A :class:`TrainConfig` field: its default and the help of its ``wildfire train`` option.
-
-    ``option`` may hold ``name`` (the option's name when not the field's), ``choices``,
-    ``min`` (integers: the smallest valid value, checked by :meth:`TrainConfig.validate`) and
-    ``unit`` (floats: True for a value in [0, 1]; other floats must be > 0 on the command line).
-    """
-    return field(default=default, metadata={"help": help, **option})
-
-
-@dataclass
-class TrainConfig:
-    """Hyperparameters of a training run (every field is a ``wildfire train`` option)."""
-
-    approach: str = hyperparameter(
-        "obs",
-        "``obs`` (sensor image, observation-based reward) or ``belief`` (ego belief, team reward).",
-        choices=APPROACHES,
-    )
-    arch: str = hyperparameter(
-        "paper",
-        "Network: ``paper`` (the paper's); belief only: ``fast`` / ``lite`` (input average-pooled "
-        "to 50x50 / 25x25).",
-        choices=ARCHITECTURES,
-    )
-    seed: int = hyperparameter(
-        1,
-        "Seed of network initialisation, exploration, replay sampling and training episodes.",
-        min=0,
-    )
-    total_samples: int = hyperparameter(
-        2_835_000,
-        "Stop after this many aircraft decisions (prefill + 280 000 iterations x 10).",
-        min=0,
-    )
-    iterations: int = hyperparameter(
-        0, "If > 0: stop after this many training iterations instead of ``total_samples``.", min=0
-    )
-    num_envs: int = hyperparameter(16, "Episodes stepped together.", min=1)
-    n_aircraft: int = hyperparameter(2, "Aircraft per training episode.", min=1)
-    shapes: tuple[str, ...] = hyperparameter(
-        ("circular", "arc"),
-        "Fire shapes of training episodes, drawn uniformly (closed and open fronts mixed).",
-    )
-    max_wind: float = hyperparameter(
-        EPISODE_DEFAULTS.max_wind,
-        "Each wind component is uniform in [-max_wind, max_wind] (random wind).",
-        unit=True,
-    )
-    episode_seconds: float = hyperparameter(
-        EPISODE_DEFAULTS.duration_s, "Time limit of an episode (training and evaluation)."
-    )
-    buffer_size: int = hyperparameter(70_000, "Replay capacity in transitions.", min=1)
-    learning_starts: int = hyperparameter(
-        35_000, "Random-action samples that prefill the replay before training.", min=0
-    )
-    train_frequency: int = hyperparameter(10, "New samples per training iteration.", min=1)
-    batch_size: int = hyperparameter(64, "Mini-batch size.", min=1)
-    gamma: float = hyperparameter(0.99, "Discount factor.", unit=True)
-    n_step: int = hyperparameter(
-        20, "Decisions summed in a Bellman target (1: the paper's one-step DQN).", min=1
-    )
-    reward_scale: float = hyperparameter(
-        0.01, "Rewards are multiplied by this in the targets (Q-values of order 1)."
-    )
-    learning_rate: float = hyperparameter(2.5e-4, "AdaMax step size.", name="lr")
-    max_grad_norm: float = hyperparameter(10.0, "Gradient-norm clip.")
-    start_e: float = hyperparameter(1.0, "Initial exploration probability.", unit=True)
-    end_e: float = hyperparameter(
-        0.5,
-        "Final exploration probability (the paper's: 0.1; see the module docstring).",
-        unit=True,
-    )
-    exploration_samples: int = hyperparameter(
-        111_111,
-        "Samples over which epsilon falls linearly from ``start_e`` to ``end_e`` (the default "
-        "keeps the slope of 1 -> 0.1 over 200 000).",
-        min=0,
-    )
-    explore_hold: int = hyperparameter(
-        20,
-        "A random action is held for 1..explore_hold decisions (1: plain epsilon-greedy).",
-        min=1,
-    )
-    double_q: bool = hyperparameter(
-        True,
-        "Double DQN targets (the online network picks the next action, the target scores it).",
-    )
-    target_network_frequency: int = hyperparameter(
-        1000, "Training iterations between target-network copies.", min=1
-    )
-    eval_every: int = hyperparameter(
-        10_000, "Training iterations between evaluations (0: only at the end).", min=0
-    )
-    eval_episodes: int = hyperparameter(20, "Held-out episodes per evaluation.", min=1)
-    eval_shapes: tuple[str, ...] = hyperparameter(
-        ("circular",),
-        "Fire shapes of evaluation episodes (the paper's training curve: circular, 2 aircraft).",
-    )
-    checkpoint_every: int = hyperparameter(
-        5_000, "Training iterations between checkpoints (0: only at the end).", min=0
-    )
-    torch_threads: int = hyperparameter(
-        1, "Threads of torch (the machine is shared: 1 or 2).", min=1
-    )
-    channels_last: bool = hyperparameter(
-        True, "Run the network in channels-last memory format (~20-40 % faster convolutions here)."
-    )
-
-    def validate(self) -> TrainConfig:
-        """Return self, or raise :class:`LearningError` naming the bad field."""
-        if self.approach not in IMAGE_SHAPES:
-            raise LearningError(f"approach: expected obs or belief, got {self.approach!r}")
-        for spec in fields(self):
-            least = spec.metadata.get("min")
-            if least is not None and getattr(self, spec.name) < least:
-                raise LearningError(
-                    f"{spec.name}: expected >= {least}, got {getattr(self, spec.name)}"
-                )
-        if not 0.0 < self.gamma <= 1.0:
-            raise LearningError(f"gamma: expected a number in (0, 1], got {self.gamma}")
-        if self.n_step > 255:
-            raise LearningError(f"n_step: expected <= 255, got {self.n_step}")
-        if not self.reward_scale > 0:
-            raise LearningError(f"reward_scale: expected > 0, got {self.reward_scale}")
-        if not self.learning_rate > 0:
-            raise LearningError(f"learning_rate: expected > 0, got {self.learning_rate}")
-        if not 0.0 <= self.end_e <= self.start_e <= 1.0:
-            raise LearningError("epsilon: expected 0 <= end_e <= start_e <= 1")
-        build_q_network(self.approach, self.arch)  # checks the architecture name
-        self.env_config()
-        self.eval_env_config()
-        return self
-
-    def env_config(self) -> EnvConfig:
-        """Environment of training episodes."""
-        return EnvConfig(
-            n_aircraft=self.n_aircraft,
-            observation=self.approach,
-            reward=self.approach,
-            shapes=tuple(self.shapes),
-            max_wind=self.max_wind,
-            max_duration_s=self.episode_seconds,
-        ).validate()
-
-    def eval_env_config(self) -> EnvConfig:
-        """Environment of evaluation episodes (the score is the team reward either way)."""
-        return replace(self.env_config(), shapes=tuple(self.eval_shapes))
-
-    def eval_seeds(self) -> list[int]:
-        return list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + self.eval_episodes))
-
-    def epsilon_at(self, samples: int) -> float:
-        """Exploration probability after ``samples`` samples."""
-        return linear_schedule(self.start_e, self.end_e, self.exploration_samples, samples)
-
-    def target_iterations(self) -> int:
-        """Iterations the run will do."""
-        if self.iterations > 0:
-            return self.iterations
-        return max(0, (self.total_samples - self.learning_starts) // self.train_frequency)
-
-
-def config_from_dict(values: dict[str, Any]) -> TrainConfig:
-    """A config from saved or given values (lists read as tuples, unknown keys ignored)."""
-    known = {f.name for f in fields(TrainConfig)}
-    kept: dict[str, Any] = {
-        k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items() if k in known
-    }
-    return TrainConfig(**kept)
-
-
-@dataclass
-class RunOptions:
-    """Where and how a run writes its files (not hyperparameters)."""
-
-    run_dir: Path
-    out: Path
-    resume: bool = False
-    baseline_score: float | None = None
-    """Receding-horizon score on the evaluation seeds (drawn as a dashed line)."""
-    bag_dirs: tuple[Path, ...] = ()
-    """Recorded bags whose transitions prefill the replay."""
-    offline: bool = False
-    """Train on the bag transitions only (no environment interaction)."""
-    init_policy: Path | None = None
-    """Start from the weights of this exported policy (fine-tuning) instead of random ones."""
-    device: str = "cpu"
-    """Torch device of the networks and mini-batches (resolved: ``cpu``, ``cuda``, ``cuda:1``)."""
 
 
 @dataclass
@@ -330,11 +136,24 @@ def td_update(
 
 
 def train(
-    config: TrainConfig, options: RunOptions, report: Callable[[Status], None] | None = None
+    config: TrainConfig | Mapping[str, Any],
+    options: RunOptions,
+    report: Callable[[Status], None] | None = None,
 ) -> TrainResult:
-    """Run (or resume) a training run; see the module docstring."""
-    config.validate()
+    """Run (or resume) a training run; see the module docstring.
+
+    ``config`` is a :class:`TrainConfig`, or the values given explicitly as a mapping of its
+    field names. A resumed run (``options.resume``) trains with ``resolve_config``'s merge:
+    defaults < its checkpoint's config < the values given, those of a :class:`TrainConfig`
+    being the fields that differ from their defaults (a mapping can also give a default back).
+    The config trained with is :attr:`TrainResult.config`.
+    """
     run_dir = options.run_dir
+    checkpoint = load_checkpoint(run_dir) if options.resume else None
+    if checkpoint is not None or not isinstance(config, TrainConfig):
+        saved = checkpoint["config"] if checkpoint is not None else None
+        config = resolve_config(saved, given_values(config))
+    config.validate()
     run_dir.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(config.torch_threads)
     n, num_envs = config.n_aircraft, config.num_envs
@@ -351,8 +170,10 @@ def train(
     target_network = target_network.to(device, memory_format=memory_format)  # type: ignore[call-overload]
     optimizer = torch.optim.Adamax(q_network.parameters(), lr=config.learning_rate)
     replay: ReplayBuffer | None = None
-    if options.resume:
-        state, replay = resume(run_dir, config, q_network, target_network, optimizer, rng)
+    if checkpoint is not None:
+        state, replay = resume(
+            run_dir, checkpoint, config, q_network, target_network, optimizer, rng
+        )
     else:
         state = TrainState()
         if options.init_policy is not None:
@@ -461,14 +282,4 @@ def train(
     )
 
 
-__all__ = [
-    "EVAL_SEED_BASE",
-    "RunOptions",
-    "TrainConfig",
-    "TrainResult",
-    "config_from_dict",
-    "hyperparameter",
-    "linear_schedule",
-    "td_update",
-    "train",
-]
+__all__ = ["TrainResult", "td_update", "train"]

@@ -18,23 +18,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wildfire_learning.architectures import IMAGE_SHAPES
 from wildfire_learning.env import WildfireVecEnv
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import VALIDATION_SEED_BASE
 from wildfire_learning.exploration import PersistentExploration
 from wildfire_learning.nstep import NStepAccumulator
 from wildfire_learning.replay import ImageCodec, ReplayBuffer
+from wildfire_learning.train_config import TrainConfig, TrainState, replay_shapes
 
-if TYPE_CHECKING:  # dqn and checkpoint import this module
+if TYPE_CHECKING:  # the bag reader (rosbags) loads only for runs that read bags
     from wildfire_learning.bag_transitions import RebuiltSequence
-    from wildfire_learning.checkpoint import TrainState
-    from wildfire_learning.dqn import TrainConfig
-
-
-def replay_shapes(config: TrainConfig) -> tuple[tuple[int, int, int], tuple[int, int]]:
-    """Shapes of a replay frame: the image (C, H, W) and the pairwise states (K, 5)."""
-    return IMAGE_SHAPES[config.approach], (max(config.n_aircraft - 1, 1), 5)
 
 
 def new_replay(
@@ -149,5 +142,4 @@ __all__ = [
     "flat_aircraft",
     "new_replay",
     "next_training_seeds",
-    "replay_shapes",
 ]

@@ -10,14 +10,11 @@ import contextlib
 import json
 from dataclasses import asdict
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from wildfire_learning.architectures import IMAGE_SHAPES
-from wildfire_learning.checkpoint import TrainState
+from wildfire_agent.approaches import IMAGE_SHAPES
 from wildfire_learning.export import sidecar_path
-
-if TYPE_CHECKING:  # dqn imports this module
-    from wildfire_learning.dqn import RunOptions, TrainConfig
+from wildfire_learning.train_config import RunOptions, TrainConfig, TrainState
 
 
 def init_summary(path: Path) -> dict[str, Any]:

@@ -15,6 +15,8 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from wildfire_agent.pairwise import STATE_SIZE
+
 
 def conv_output_size(height: int, width: int) -> tuple[int, int]:
     """Spatial size after the three 2 x 2 max-pools."""
@@ -26,7 +28,7 @@ def conv_output_size(height: int, width: int) -> tuple[int, int]:
 class QNetwork(nn.Module):
     """Pairwise Q-network of the paper."""
 
-    def __init__(self, image_shape: tuple[int, int, int], state_size: int = 5) -> None:
+    def __init__(self, image_shape: tuple[int, int, int], state_size: int = STATE_SIZE) -> None:
         super().__init__()
         channels, height, width = image_shape
         pooled_h, pooled_w = conv_output_size(height, width)

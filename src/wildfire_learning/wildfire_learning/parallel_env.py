@@ -14,7 +14,8 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from wildfire_agent.approaches import APPROACHES, Approach
+from wildfire_agent.approaches import APPROACHES, IMAGE_SHAPES
+from wildfire_agent.pairwise import STATE_SIZE
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 
 
@@ -34,12 +35,12 @@ class WildfireParallelEnv(ParallelEnv):  # type: ignore[misc]  # pettingzoo is u
         self.possible_agents = [f"uav{k}" for k in range(self.config.n_aircraft)]
         self.agents: list[str] = []
         self._env = WildfireVecEnv(self.config, 1)
-        image_shape = (1, 30, 40) if self.config.observation == Approach.OBS else (2, 100, 100)
+        image_shape = IMAGE_SHAPES[self.config.observation]
         pairs = max(self.config.n_aircraft - 1, 1)
         self._observation_space = spaces.Dict(
             {
                 "image": spaces.Box(0.0, 1.0, image_shape, np.float32),
-                "state": spaces.Box(-np.inf, np.inf, (pairs, 5), np.float32),
+                "state": spaces.Box(-np.inf, np.inf, (pairs, STATE_SIZE), np.float32),
             }
         )
         self._action_space = spaces.Discrete(2)

@@ -12,11 +12,8 @@ import resource
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:  # dqn imports this module
-    from wildfire_learning.checkpoint import TrainState
-    from wildfire_learning.dqn import TrainConfig
+from wildfire_learning.train_config import TrainConfig, TrainState
 
 
 @dataclass

@@ -8,7 +8,7 @@ the validation seeds, which nothing is trained on, pick it.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from torch import nn
@@ -18,12 +18,8 @@ from wildfire_learning.env import StepResult
 from wildfire_learning.evaluate import EvaluationSummary, evaluate
 from wildfire_learning.export import export_policy
 from wildfire_learning.model_card import policy_card
-
-if TYPE_CHECKING:  # dqn imports this module
-    from wildfire_learning.checkpoint import TrainState
-    from wildfire_learning.dqn import RunOptions, TrainConfig
-    from wildfire_learning.progress import Session
-
+from wildfire_learning.progress import Session
+from wildfire_learning.train_config import RunOptions, TrainConfig, TrainState
 
 RETURN_TAIL_WEIGHT = 0.01
 """A decision of an episode cut by the time limit counts in the value check only if the

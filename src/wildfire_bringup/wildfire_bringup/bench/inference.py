@@ -27,12 +27,14 @@ from typing import Any
 import numpy as np
 import torch
 
+from wildfire_agent.approaches import IMAGE_SHAPES
 from wildfire_agent.policies import TorchScriptPolicy
 from wildfire_agent.policy_names import MODELS_DIR
-from wildfire_learning.architectures import IMAGE_SHAPES, build_q_network
-from wildfire_learning.dqn import RunOptions, TrainConfig, td_update, train
+from wildfire_learning.architectures import build_q_network
+from wildfire_learning.dqn import td_update, train
 from wildfire_learning.export import export_policy
 from wildfire_learning.replay import ImageCodec, ReplayBuffer
+from wildfire_learning.train_config import RunOptions, TrainConfig
 
 PAPER_REPLAY = 70_000
 VARIANTS = (

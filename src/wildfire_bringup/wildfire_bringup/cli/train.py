@@ -1,7 +1,7 @@
 """``wildfire train``: deep Q-learning of a policy, in simulation or from recorded bags.
 
-Every field of :class:`wildfire_learning.dqn.TrainConfig` is an option (``--total-samples``,
-``--num-envs``, ``--lr`` ...). A run writes under ``--run-dir`` (default
+Every field of :class:`wildfire_learning.train_config.TrainConfig` is an option
+(``--total-samples``, ``--num-envs``, ``--lr`` ...). A run writes under ``--run-dir`` (default
 ``runs/<approach>-<arch>-s<seed>``): ``checkpoint.pt`` + ``replay.npz`` (``--resume``
 continues from them), ``learning_curve.csv``/``.png`` and ``train_summary.json``; the policy
 goes to ``--out`` (default ``<run-dir>/<approach>_policy.pt``) with its card as a sidecar JSON.
@@ -26,10 +26,11 @@ from wildfire_bringup.cli.common import (
     print_json,
     unit_interval,
 )
-from wildfire_learning.checkpoint import CHECKPOINT_FILE, load_checkpoint, upgrade_saved_config
+from wildfire_learning.checkpoint import CHECKPOINT_FILE, load_checkpoint
 from wildfire_learning.device import resolve_device
-from wildfire_learning.dqn import RunOptions, TrainConfig, config_from_dict, train
+from wildfire_learning.dqn import train
 from wildfire_learning.progress import Status
+from wildfire_learning.train_config import RunOptions, TrainConfig, resolve_config
 from wildfire_ros.node_support import interrupt_on_stop_signals
 
 
@@ -125,14 +126,18 @@ def _baseline(text: str | None) -> float | None:
         raise UserError(f"--baseline {path}: expected JSON with a numeric 'score_mean'") from None
 
 
+def given_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The :class:`TrainConfig` values given on the command line (lists read as tuples)."""
+    return {
+        spec.name: tuple(given) if isinstance(given, list) else given
+        for spec in fields(TrainConfig)
+        if (given := getattr(args, spec.name)) is not None
+    }
+
+
 def build_config(args: argparse.Namespace, saved: dict[str, Any] | None) -> TrainConfig:
     """Defaults < saved checkpoint config < options given on the command line."""
-    values: dict[str, Any] = upgrade_saved_config(saved) if saved else {}
-    for spec in fields(TrainConfig):
-        given = getattr(args, spec.name)
-        if given is not None:
-            values[spec.name] = tuple(given) if isinstance(given, list) else given
-    return config_from_dict(values)
+    return resolve_config(saved, given_options(args))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -167,7 +172,9 @@ def run(args: argparse.Namespace) -> int:
     # `kill PID` of a background run checkpoints like Ctrl-C does (see dqn.train).
     interrupt_on_stop_signals()
     with _progress(enabled=not args.json, log_every_s=args.log_every) as report:
-        result = train(config, options, report)
+        # Only the options given: a resumed run merges them over its checkpoint's config as
+        # build_config did (a TrainConfig could not tell a default given from one not given).
+        result = train(given_options(args), options, report)
 
     evaluation = result.card["evaluation"]
     summary = {
@@ -274,4 +281,4 @@ class _progress:
             self.progress.__exit__(*exc)
 
 
-__all__ = ["add_config_options", "add_parser", "build_config", "run"]
+__all__ = ["add_config_options", "add_parser", "build_config", "given_options", "run"]
