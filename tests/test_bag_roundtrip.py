@@ -165,7 +165,7 @@ def codecs_qos() -> Any:
 WILDFIRE = [
     sys.executable,
     "-c",
-    "import sys; from wildfire_bringup.cli import main; sys.exit(main())",
+    "import sys; from wildfire_cli import main; sys.exit(main())",
 ]
 PUBLISHER = """
 import sys, time

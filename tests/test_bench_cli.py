@@ -26,8 +26,8 @@ WILDFIRE = str(Path(sys.executable).parent / "wildfire")
 
 
 def test_bench_runs_every_suite_and_reports_its_figures(dds_env: dict[str, str]) -> None:
-    from wildfire_bringup.cli.bench import SUITES
-    from wildfire_bringup.hosts import namespaces_unavailable
+    from wildfire_cli.bench import SUITES
+    from wildfire_testbed.hosts import namespaces_unavailable
 
     result = subprocess.run(
         [WILDFIRE, "bench", "--quick", "--smoke", "--json"],

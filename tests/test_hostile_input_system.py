@@ -28,7 +28,7 @@ def fuzzer(dds_env: dict[str, str]) -> Iterator[subprocess.Popen[str]]:
         [
             sys.executable,
             "-m",
-            "wildfire_bringup.wire_fuzzer",
+            "wildfire_testbed.wire_fuzzer",
             "--aircraft",
             "2",
             "--rate",

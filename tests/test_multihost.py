@@ -34,12 +34,12 @@ import numpy as np
 import pytest
 
 from backend_cases import BACKENDS, require_backend
-from wildfire_bringup import hosts
 from wildfire_ros.network import (
     CONFLICTING_HOST_VARIABLES,
     apply_local_network_defaults,
     host_network_environment,
 )
+from wildfire_testbed import hosts
 
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")
 REAL_INTERFACE = "eth0"

@@ -28,8 +28,8 @@ import numpy as np
 import pytest
 
 from backend_cases import BACKENDS, require_backend
-from wildfire_bringup import hosts
-from wildfire_bringup.netfaults import (
+from wildfire_testbed import hosts
+from wildfire_testbed.netfaults import (
     FaultSpecError,
     NetemSpec,
     Partition,
@@ -140,8 +140,8 @@ def test_bad_fault_option_is_one_line(args: list[str], expected: str) -> None:
 
 
 def test_bench_network_without_root_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
-    from wildfire_bringup.cli import bench
-    from wildfire_bringup.cli.common import UserError
+    from wildfire_cli import bench
+    from wildfire_cli.common import UserError
 
     monkeypatch.setattr(os, "geteuid", lambda: 1000)
     args = argparse.Namespace(only=["network"], quick=True, device="cpu", json=True)

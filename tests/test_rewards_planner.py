@@ -258,7 +258,7 @@ def test_compiled_track_is_the_dynamics_track_bit_for_bit():
 @pytest.mark.parametrize("policy", ["rh", "rh-paper"])
 def test_compiled_plans_equal_reference_plans_in_episodes(policy):
     """Every plan of two 3-aircraft episodes, planned by both searches."""
-    from wildfire_bringup.bench.core import capture_plans
+    from wildfire_bench.core import capture_plans
 
     problems = capture_plans(n_aircraft=3, decisions=60)
     assert len(problems) > 10

@@ -12,7 +12,7 @@ import pytest
 WILDFIRE = [
     sys.executable,
     "-c",
-    "import sys; from wildfire_bringup.cli import main; sys.exit(main())",
+    "import sys; from wildfire_cli import main; sys.exit(main())",
 ]
 
 

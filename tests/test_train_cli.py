@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import torch
 
-from wildfire_bringup.cli import main as cli_main
+from wildfire_cli import main as cli_main
 from wildfire_learning.architectures import build_q_network
 from wildfire_learning.checkpoint import CHECKPOINT_FILE, load_checkpoint
 from wildfire_learning.plots import CURVE_CSV, CURVE_PNG
@@ -255,7 +255,7 @@ def test_a_resumed_run_keeps_the_behaviour_it_was_started_with() -> None:
     import argparse
     from dataclasses import fields
 
-    from wildfire_bringup.cli.train import build_config
+    from wildfire_cli.train import build_config
     from wildfire_learning.train_config import TrainConfig
 
     nothing_given = argparse.Namespace(**{f.name: None for f in fields(TrainConfig)})

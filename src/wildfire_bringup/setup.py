@@ -15,21 +15,21 @@ setup(
     ],
     install_requires=[
         "setuptools",
+        "numpy",
         "pyyaml",
-        "rich",
         "wildfire_msgs_py",
         "wildfire_ros",
         "wildfire_sim",
         "wildfire_belief",
         "wildfire_agent",
-        "wildfire_learning",
+        "wildfire_testbed",
     ],
     zip_safe=True,
     maintainer="Wildfire surveillance maintainers",
     maintainer_email="wildfire@example.org",
-    description="The wildfire command-line tool, launch files and default parameters.",
+    description=(
+        "Launch files, default parameters and the launcher that brings a whole system up "
+        "(wildfire run), with its run monitor node."
+    ),
     license="Apache-2.0",
-    entry_points={
-        "console_scripts": ["wildfire = wildfire_bringup.cli:main"],
-    },
 )

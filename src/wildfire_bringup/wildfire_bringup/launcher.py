@@ -15,11 +15,11 @@ starts it again (an agent continues from its last published state, the aggregato
 the belief from the agents).
 
 With ``RunSpec.hosts`` the run spreads over that many virtual hosts, Linux network namespaces on
-a bridge of their own (:mod:`wildfire_bringup.hosts`): the launcher joins host 0 before its
+a bridge of their own (:mod:`wildfire_testbed.hosts`): the launcher joins host 0 before its
 participant exists, every child starts under ``ip netns exec`` with its host's DDS settings, and
 the namespaces are removed when the run ends, fails or is interrupted. ``RunSpec.netem`` impairs
 every host's link and ``RunSpec.partitions`` cut hosts off and heal them on schedule
-(:mod:`wildfire_bringup.netfaults`); a cut host's nodes are *unreachable*, not dead (only a
+(:mod:`wildfire_testbed.netfaults`); a cut host's nodes are *unreachable*, not dead (only a
 process that exits is), and the run goes on: :class:`PartitionSchedule` logs the cut and the heal
 and, from the monitor's receipt times, when each unreachable node was heard again.
 """
@@ -39,10 +39,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from wildfire_bringup.hosts import LAUNCHER, VirtualHosts
 from wildfire_bringup.monitor_node import REPORTER, RunMonitorNode
-from wildfire_bringup.netfaults import NetemSpec, Partition, PartitionRecord
 from wildfire_ros.network import apply_local_network_defaults
+from wildfire_testbed.hosts import LAUNCHER, VirtualHosts
+from wildfire_testbed.netfaults import NetemSpec, Partition, PartitionRecord
 
 if TYPE_CHECKING:
     from collections.abc import Callable

@@ -1,6 +1,6 @@
 """A hostile participant: floods every topic of a running system with bad and replayed messages.
 
-``python -m wildfire_bringup.wire_fuzzer --aircraft 3 --rate 200 --duration 60`` joins the
+``python -m wildfire_testbed.wire_fuzzer --aircraft 3 --rate 200 --duration 60`` joins the
 domain like any node (``ROS_DOMAIN_ID``, the runtime's backend) and, cycling through
 :data:`CASES`, publishes malformed messages (sizes, layouts, encodings), out-of-range ones
 (non-finite numbers, values the model never produces, unknown reporters, wrong frames, stamps
@@ -213,7 +213,7 @@ class WireFuzzer(Node):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m wildfire_bringup.wire_fuzzer")
+    parser = argparse.ArgumentParser(prog="python -m wildfire_testbed.wire_fuzzer")
     parser.add_argument("--aircraft", type=int, default=3, help="aircraft of the target system")
     parser.add_argument("--rate", type=float, default=200.0, help="bad messages per second")
     parser.add_argument("--duration", type=float, default=60.0, help="seconds to run")

@@ -217,7 +217,7 @@ def _grid_latency(subscribers: int, messages: int, domain_id: int) -> list[float
     command = [
         sys.executable,
         "-m",
-        "wildfire_bringup.bench.dds",
+        "wildfire_bench.dds",
         "--subscriber",
         str(messages),
         str(timeout_s),

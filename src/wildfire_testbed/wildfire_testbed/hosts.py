@@ -23,9 +23,9 @@ processes start under ``ip netns exec <host>``. Every process gets its host's DD
 (:func:`wildfire_ros.network.host_network_environment`): both middlewares bound to the host's
 address, discovery unicast to the K host addresses.
 
-Network faults (:mod:`wildfire_bringup.netfaults`): with a :class:`NetemSpec` every host's ``wf0``
+Network faults (:mod:`wildfire_testbed.netfaults`): with a :class:`NetemSpec` every host's ``wf0``
 gets ``tc qdisc add ... root netem``, or, on a kernel without ``sch_netem``, the bridge namespace
-runs :mod:`wildfire_bringup.netem_switch` in place of the kernel bridge; :meth:`VirtualHosts.cut`
+runs :mod:`wildfire_testbed.netem_switch` in place of the kernel bridge; :meth:`VirtualHosts.cut`
 and :meth:`VirtualHosts.heal` take a host's bridge port down and up (a partition).
 
 Tear-down always runs: when the run ends, fails or is interrupted (:class:`VirtualHosts` is a
@@ -49,8 +49,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from wildfire_bringup.netfaults import NetemSpec
 from wildfire_ros.network import CONFLICTING_HOST_VARIABLES, host_network_environment
+from wildfire_testbed.netfaults import NetemSpec
 
 if TYPE_CHECKING:
     from collections.abc import Iterator, MutableMapping
@@ -342,7 +342,7 @@ class VirtualHosts:
         for port in ports:  # the switch forwards in place of the kernel bridge
             _ip("-n", self.bridge_namespace, "link", "set", port, "nomaster")
         command = [_ip_command(), "netns", "exec", self.bridge_namespace, sys.executable]
-        command += ["-m", "wildfire_bringup.netem_switch", "--ports", *ports]
+        command += ["-m", "wildfire_testbed.netem_switch", "--ports", *ports]
         command += ["--delay-ms", str(netem.delay_ms), "--jitter-ms", str(netem.jitter_ms)]
         command += ["--loss-percent", str(netem.loss_percent), "--seed", str(self._seed)]
         command += ["--stats", str(self.config_dir / SWITCH_STATS)]

@@ -5,7 +5,7 @@ host namespace. Some kernels (minimal VM and container kernels) are built withou
 there the run starts this module inside the bridge namespace instead of enslaving the hosts'
 ports to the kernel bridge::
 
-    ip netns exec wfh-<pid>-br python -m wildfire_bringup.netem_switch \\
+    ip netns exec wfh-<pid>-br python -m wildfire_testbed.netem_switch \\
         --ports wfp0 wfp1 ... --delay-ms 20 --jitter-ms 10 --loss-percent 2 --stats FILE
 
 It reads every frame a host sends (a packet socket per bridge port), drops it with the loss

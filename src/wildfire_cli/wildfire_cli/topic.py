@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
-from wildfire_bringup.cli.common import UserError, positive_float, positive_int
-from wildfire_bringup.cli.ros_tools import (
+from wildfire_cli.common import UserError, positive_float, positive_int
+from wildfire_cli.ros_tools import (
     publisher_qos,
     ros_node,
     subscription_qos,

@@ -15,7 +15,7 @@ import os
 import sys
 from typing import TYPE_CHECKING
 
-from wildfire_bringup.cli.common import USER_ERRORS, ArgumentParser
+from wildfire_cli.common import USER_ERRORS, ArgumentParser
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -48,10 +48,10 @@ def build_parser(only: str | None = None) -> ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMAND_MODULES if only not in COMMAND_MODULES else (only,):
         try:
-            module = importlib.import_module(f"wildfire_bringup.cli.{name}")
+            module = importlib.import_module(f"wildfire_cli.{name}")
         except ModuleNotFoundError as error:
             # A command whose module is not written yet is simply not offered.
-            if error.name == f"wildfire_bringup.cli.{name}":
+            if error.name == f"wildfire_cli.{name}":
                 continue
             raise
         module.add_parser(subparsers)

@@ -6,8 +6,8 @@ end of the episode or on Ctrl-C (the recording is always finalized) and prints a
 ``--fast`` (the default) runs in lockstep on sim time and flies exactly what
 ``wildfire eval --episodes 1`` flies for the same seed; ``--realtime`` runs on wall clocks.
 ``--hosts K`` spreads the nodes over K virtual hosts (network namespaces joined by a private
-bridge, see :mod:`wildfire_bringup.hosts`), which the run creates and removes; ``--netem`` and
-``--partition`` inject network faults there (:mod:`wildfire_bringup.netfaults`).
+bridge, see :mod:`wildfire_testbed.hosts`), which the run creates and removes; ``--netem`` and
+``--partition`` inject network faults there (:mod:`wildfire_testbed.netfaults`).
 """
 
 from __future__ import annotations
@@ -20,14 +20,14 @@ from typing import Any
 import numpy as np
 import yaml
 
-from wildfire_bringup.cli.common import (
+from wildfire_cli.common import (
     UserError,
     add_episode_arguments,
     positive_int,
     print_json,
     scenario_settings,
 )
-from wildfire_bringup.cli.progress import progress_bar
+from wildfire_cli.progress import progress_bar
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -152,7 +152,7 @@ def check_hosts(count: int | None, n_aircraft: int) -> int:
     """``--hosts``: 0 when not given; else within 1..aircraft+2 and namespaces available."""
     if count is None:
         return 0
-    from wildfire_bringup.hosts import max_hosts, namespaces_unavailable
+    from wildfire_testbed.hosts import max_hosts, namespaces_unavailable
 
     if count > max_hosts(n_aircraft):
         raise UserError(
@@ -167,7 +167,7 @@ def check_hosts(count: int | None, n_aircraft: int) -> int:
 
 def check_faults(args: argparse.Namespace, hosts: int) -> tuple[Any, tuple[Any, ...]]:
     """``--netem`` and ``--partition``: parsed, and only with ``--hosts``."""
-    from wildfire_bringup.netfaults import FaultSpecError, NetemSpec, Partition, check_partitions
+    from wildfire_testbed.netfaults import FaultSpecError, NetemSpec, Partition, check_partitions
 
     netem = None
     if args.netem is not None:
@@ -313,9 +313,9 @@ def network_faults(launcher: Any) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from wildfire_bringup.hosts import HostNetworkError
     from wildfire_bringup.launcher import Launcher, NodeFailure
     from wildfire_ros.node_support import interrupt_on_stop_signals
+    from wildfire_testbed.hosts import HostNetworkError
 
     if args.png is not None and not os.access(args.png.resolve().parent, os.W_OK):
         raise UserError(f"--png {args.png}: its directory is not writable")

@@ -9,7 +9,7 @@ import sys
 import time
 from typing import TYPE_CHECKING, Any
 
-from wildfire_bringup.cli.common import UserError, positive_float, print_json
+from wildfire_cli.common import UserError, positive_float, print_json
 
 if TYPE_CHECKING:
     from wildfire_ros.bag import BagInfo
@@ -176,7 +176,7 @@ def run_record(args: argparse.Namespace) -> int:
 
 def run_play(args: argparse.Namespace) -> int:
     """``bag play``: Ctrl-C stops it cleanly (exit status 0, as ros2 bag play)."""
-    from wildfire_bringup.cli.progress import progress_bar
+    from wildfire_cli.progress import progress_bar
     from wildfire_ros.bag_play import BagPlayer
     from wildfire_ros.node_support import interrupt_on_stop_signals
     from wildfire_ros.runtime import rclpy

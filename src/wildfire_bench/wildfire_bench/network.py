@@ -107,16 +107,16 @@ def _ping(count: int, discovery_s: float = 60.0) -> dict[str, Any]:
 
 def ping_main(count: int, netem: str | None) -> dict[str, Any]:
     """Two virtual hosts, the echo node in host 1, round trips from this process in host 0."""
-    from wildfire_bringup.hosts import VirtualHosts
     from wildfire_bringup.launcher import child_environment
-    from wildfire_bringup.netfaults import NetemSpec
+    from wildfire_testbed.hosts import VirtualHosts
+    from wildfire_testbed.netfaults import NetemSpec
 
     spec = NetemSpec.parse(netem) if netem else None
     with tempfile.TemporaryDirectory(prefix="wildfire-bench-net-") as tmp:
         network = VirtualHosts(1, 2, Path(tmp), spec)
         with network:
             env = network.environment("uav0", child_environment())
-            command = [sys.executable, "-m", "wildfire_bringup.bench.network", "--echo"]
+            command = [sys.executable, "-m", "wildfire_bench.network", "--echo"]
             os.environ["ROS_DOMAIN_ID"] = env["ROS_DOMAIN_ID"]
             echo = subprocess.Popen(network.command("uav0", command), env=env)
             try:
@@ -131,9 +131,9 @@ def ping_main(count: int, netem: str | None) -> dict[str, Any]:
 
 def recovery_main(quick: bool, smoke: bool = False) -> dict[str, Any]:
     """Real time on 4 hosts: the aggregator's host cut off, then an agent's; recovery times."""
-    from wildfire_bringup.bench.system import _spec
+    from wildfire_bench.system import _spec
     from wildfire_bringup.launcher import Launcher
-    from wildfire_bringup.netfaults import Partition
+    from wildfire_testbed.netfaults import Partition
 
     cut_s = 1.0 if smoke else 4.0 if quick else 10.0
     # The second cut starts 6 s after the first ends, and recovery needs a few seconds after.
@@ -160,7 +160,7 @@ def recovery_main(quick: bool, smoke: bool = False) -> dict[str, Any]:
 
 
 def _child(backend: str, *args: str) -> dict[str, Any]:
-    command = [sys.executable, "-m", "wildfire_bringup.bench.network", "--backend", backend]
+    command = [sys.executable, "-m", "wildfire_bench.network", "--backend", backend]
     env = {**os.environ, "WILDFIRE_ROS_BACKEND": backend}
     done = subprocess.run(
         [*command, *args], env=env, capture_output=True, text=True, check=False, timeout=900
@@ -174,8 +174,8 @@ def _child(backend: str, *args: str) -> dict[str, Any]:
 
 def bench_network(quick: bool = False, smoke: bool = False) -> dict[str, Any]:
     """Both backends: per-hop latency clean and impaired, recovery after a heal."""
-    from wildfire_bringup.bench.system import _backend_available
-    from wildfire_bringup.hosts import namespaces_unavailable
+    from wildfire_bench.system import _backend_available
+    from wildfire_testbed.hosts import namespaces_unavailable
 
     reason = namespaces_unavailable()
     if reason is not None:

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from wildfire_agent.policy_names import BUILTIN_POLICIES, resolve_policy_path
-from wildfire_bringup.cli.common import (
+from wildfire_cli.common import (
     UserError,
     add_duration_argument,
     add_max_wind_argument,
@@ -21,7 +21,7 @@ from wildfire_bringup.cli.common import (
     positive_int,
     print_json,
 )
-from wildfire_bringup.cli.progress import progress_bar
+from wildfire_cli.progress import progress_bar
 from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, EvaluationSummary, evaluate

@@ -11,7 +11,7 @@ For each ROS runtime backend (real rclpy on Fast DDS, and our Cyclone DDS layer)
   (from every agent's deadline statistics), target < 1 % on a quiet machine.
 
 The runtime backend is chosen once per process, so each backend is measured in a child
-process (``python -m wildfire_bringup.bench.system --backend B``).
+process (``python -m wildfire_bench.system --backend B``).
 """
 
 from __future__ import annotations
@@ -114,7 +114,7 @@ def bench_system(quick: bool = False, smoke: bool = False) -> dict[str, Any]:
         if not _backend_available(backend):
             result[f"{backend}_skipped"] = "rclpy does not import (no ROS 2 Jazzy wheels here)"
             continue
-        command = [sys.executable, "-m", "wildfire_bringup.bench.system", "--backend", backend]
+        command = [sys.executable, "-m", "wildfire_bench.system", "--backend", backend]
         env = {**os.environ, "WILDFIRE_ROS_BACKEND": backend}
         done = subprocess.run(
             [*command, *(["--quick"] if quick else []), *(["--smoke"] if smoke else [])],

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from wildfire_agent.receding_horizon import PlanProblem, plan
-from wildfire_bringup.bench.reference_fire import ReferenceFire
+from wildfire_bench.reference_fire import ReferenceFire
 from wildfire_learning.controllers import RecedingHorizonEnvController
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_sim.fire import BatchedFire

@@ -17,7 +17,7 @@ from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-from wildfire_bringup.cli.common import (
+from wildfire_cli.common import (
     UserError,
     add_device_argument,
     non_negative_int,

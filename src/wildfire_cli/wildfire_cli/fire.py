@@ -6,8 +6,8 @@ import argparse
 
 import numpy as np
 
-from wildfire_bringup.cli.common import non_negative_int, positive_int, print_json, wind_vector
-from wildfire_bringup.cli.progress import progress_bar
+from wildfire_cli.common import non_negative_int, positive_int, print_json, wind_vector
+from wildfire_cli.progress import progress_bar
 from wildfire_sim.fire import BatchedFire
 from wildfire_sim.grid import CELL_SIZE_M
 from wildfire_sim.shapes import Shape, shape_masks

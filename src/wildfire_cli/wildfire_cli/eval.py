@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from wildfire_agent.policy_names import BUILTIN_POLICIES, resolve_policy_path
-from wildfire_bringup.cli.common import (
+from wildfire_cli.common import (
     UserError,
     add_device_argument,
     add_episode_arguments,
@@ -14,7 +14,7 @@ from wildfire_bringup.cli.common import (
     print_json,
     scenario_settings,
 )
-from wildfire_bringup.cli.progress import progress_bar
+from wildfire_cli.progress import progress_bar
 from wildfire_learning.controllers import make_controller
 from wildfire_learning.device import resolve_device
 from wildfire_learning.env import EnvConfig

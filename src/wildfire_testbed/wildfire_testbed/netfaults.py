@@ -4,7 +4,7 @@
   applies on every host's link. Where the kernel has ``sch_netem`` it is exactly that qdisc on
   each host's ``wf0`` (egress, so a frame between two hosts is impaired once, by its sender).
   Where it has not (some VM and container kernels build no ``sch_netem``), the bridge namespace
-  runs :mod:`wildfire_bringup.netem_switch` instead of the kernel bridge: a user-space switch
+  runs :mod:`wildfire_testbed.netem_switch` instead of the kernel bridge: a user-space switch
   that delays and drops each frame by the same rule. The run's summary says which one it used.
 * :class:`Partition` — ``HOST:START_S:DURATION_S``: the host's bridge port goes down ``START_S``
   seconds of wall time after the first tick and up again ``DURATION_S`` later. The host keeps

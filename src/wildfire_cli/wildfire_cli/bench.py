@@ -11,19 +11,19 @@ from typing import Any
 
 import torch
 
-from wildfire_bringup.cli.common import UserError, add_device_argument, print_json
+from wildfire_cli.common import UserError, add_device_argument, print_json
 
 # name -> (module, function, what it measures); the modules import lazily so a missing
 # optional part (e.g. no trained model yet) only skips its own figures.
 SUITES: dict[str, tuple[str, str, str]] = {
-    "fire": ("wildfire_bringup.bench.core", "bench_fire", "batched fire model vs reference"),
-    "env": ("wildfire_bringup.bench.core", "bench_env", "environment decisions per second"),
-    "rh": ("wildfire_bringup.bench.core", "bench_receding_horizon", "receding-horizon planning"),
-    "inference": ("wildfire_bringup.bench.inference", "bench_inference", "policy inference"),
-    "dds": ("wildfire_bringup.bench.dds", "bench_dds", "DDS grid fan-out and overhead"),
-    "system": ("wildfire_bringup.bench.system", "bench_system", "distributed system"),
+    "fire": ("wildfire_bench.core", "bench_fire", "batched fire model vs reference"),
+    "env": ("wildfire_bench.core", "bench_env", "environment decisions per second"),
+    "rh": ("wildfire_bench.core", "bench_receding_horizon", "receding-horizon planning"),
+    "inference": ("wildfire_bench.inference", "bench_inference", "policy inference"),
+    "dds": ("wildfire_bench.dds", "bench_dds", "DDS grid fan-out and overhead"),
+    "system": ("wildfire_bench.system", "bench_system", "distributed system"),
     "network": (
-        "wildfire_bringup.bench.network",
+        "wildfire_bench.network",
         "bench_network",
         "virtual hosts: latency per hop, recovery after a partition (root)",
     ),
@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     if args.only and "network" in args.only:
         # Asked for by name, it must run; in a full bench without root it is skipped (and says
         # why in its figures).
-        from wildfire_bringup.hosts import namespaces_unavailable
+        from wildfire_testbed.hosts import namespaces_unavailable
 
         reason = namespaces_unavailable()
         if reason is not None:

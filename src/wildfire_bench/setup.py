@@ -1,0 +1,33 @@
+from setuptools import find_packages, setup
+
+package_name = "wildfire_bench"
+
+setup(
+    name=package_name,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    package_data={package_name: ["py.typed"]},
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
+        ("share/" + package_name, ["package.xml"]),
+    ],
+    install_requires=[
+        "setuptools",
+        "numpy",
+        "torch",
+        "wildfire_msgs_py",
+        "wildfire_ros",
+        "wildfire_sim",
+        "wildfire_agent",
+        "wildfire_learning",
+        "wildfire_testbed",
+        "wildfire_bringup",
+    ],
+    zip_safe=True,
+    maintainer="Wildfire surveillance maintainers",
+    maintainer_email="wildfire@example.org",
+    description=(
+        "Benchmarks behind wildfire bench: each module measures one part of the real system."
+    ),
+    license="Apache-2.0",
+)
