@@ -14,8 +14,11 @@ else ``dds``; ``scripts/test.sh`` runs the ROS-facing tests a second time with `
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import os
+import tempfile
 from pathlib import Path
+from typing import TextIO
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 LOOPBACK_CONFIG = REPO_ROOT / "config" / "cyclonedds_loopback.xml"
@@ -25,13 +28,30 @@ os.environ["CYCLONEDDS_URI"] = LOOPBACK_CONFIG.as_uri()
 os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(FASTDDS_LOOPBACK_PROFILE)
 os.environ.pop("FASTDDS_DEFAULT_PROFILES_FILE", None)
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-# Domain ids 0..101 are safe on Linux for any participant count; 0 is the usual default,
-# so a test session uses 1..100, derived from its process id. Parallel workers of one session
-# (pytest-xdist, as scripts/test.sh runs it) each take a half of that range, so that two
-# workers can never share a domain.
-_worker = os.environ.get("PYTEST_XDIST_WORKER", "")
-_half = int(_worker[2:]) % 2 if _worker.startswith("gw") and _worker[2:].isdigit() else 0
-os.environ["ROS_DOMAIN_ID"] = str(1 + 50 * _half + os.getpid() % 50)
+# Domain ids 0..101 are safe on Linux for any participant count; 0 is the usual default, so
+# a test process (a session, or each pytest-xdist worker of one) claims one of 1..100 that no
+# other test process on this machine holds: an exclusive lock on a file per id, held until it
+# exits. Ids derived from process ids alone collided: two sessions at once (a developer's and
+# CI's) then recorded each other's messages.
+_DOMAIN_LOCKS = Path(tempfile.gettempdir()) / "wildfire-test-domains"
+
+
+def _claim_domain_id() -> tuple[int, TextIO]:
+    _DOMAIN_LOCKS.mkdir(exist_ok=True)
+    for offset in range(100):
+        domain = 1 + (os.getpid() + offset) % 100
+        lock = open(_DOMAIN_LOCKS / f"{domain}.lock", "w")  # noqa: SIM115 (held until exit)
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            lock.close()
+            continue
+        return domain, lock
+    raise RuntimeError(f"every ROS domain id 1..100 is held by a test process ({_DOMAIN_LOCKS})")
+
+
+_DOMAIN_ID, _DOMAIN_LOCK = _claim_domain_id()
+os.environ["ROS_DOMAIN_ID"] = str(_DOMAIN_ID)
 
 
 def _default_backend() -> str:
