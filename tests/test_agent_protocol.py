@@ -16,9 +16,7 @@ import numpy as np
 import pytest
 
 from wildfire_agent import dynamics
-from wildfire_agent.dynamics import AircraftState
-from wildfire_agent.pilot import Pilot
-from wildfire_agent.protocol import (
+from wildfire_agent.agent_protocol import (
     PERIOD_S,
     AckOut,
     AgentProtocol,
@@ -32,6 +30,8 @@ from wildfire_agent.protocol import (
     state_vector,
     team_state,
 )
+from wildfire_agent.aircraft_policy import AircraftPolicy
+from wildfire_agent.dynamics import AircraftState
 from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
 from wildfire_msgs_py.system_codecs import EpisodeStatus
 from wildfire_sim.episode import DECISION_PERIOD_NS, DECISIONS_PER_FIRE_STEP, initial_fire
@@ -79,7 +79,7 @@ def make_protocol(
         k,
         n,
         mode,
-        Pilot(policy, k, n, SEED),
+        AircraftPolicy(policy, k, n, SEED),
         own_start(start_state(n), k),
         f"uav{k}",
         clock.ns,
@@ -125,7 +125,7 @@ def reference(n: int, ticks: int) -> list[AircraftState]:
 
 def reference_flight(n: int, ticks: int) -> tuple[list[AircraftState], list[np.ndarray]]:
     """States s_1..s_ticks and the (n,) actions a_0..a_{ticks-1} that flew them."""
-    pilots = [Pilot("random", k, n, SEED) for k in range(n)]
+    pilots = [AircraftPolicy("random", k, n, SEED) for k in range(n)]
     state = start_state(n)
     states, actions = [], []
     for _ in range(ticks):

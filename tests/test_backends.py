@@ -19,9 +19,9 @@ from pathlib import Path
 
 import pytest
 
-from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
+from wildfire_learning.vec_policies import make_vec_policy
 from wildfire_ros.runtime import BACKEND
 
 pytestmark = [pytest.mark.dds, pytest.mark.timeout(300)]
@@ -60,7 +60,7 @@ def test_mixed_backends_lockstep_equals_evaluate(dds_env: dict[str, str]) -> Non
     summary = json.loads(done.stdout)
     assert summary["backend"] == BACKEND
     config = EnvConfig(n_aircraft=2, shapes=("circular",), wind=(0.2, 0.1), max_duration_s=duration)
-    reference = evaluate(make_controller("rh"), config, [seed]).episodes[0]
+    reference = evaluate(make_vec_policy("rh"), config, [seed]).episodes[0]
     assert summary["score"] == reference.score
     assert summary["decisions"] == reference.decisions
 

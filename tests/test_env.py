@@ -1,4 +1,4 @@
-"""The batched environment, its PettingZoo wrapper, controllers and evaluation."""
+"""The batched environment, its PettingZoo wrapper, policies and evaluation."""
 
 from __future__ import annotations
 
@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from pettingzoo.test import parallel_api_test, parallel_seed_test
 
-from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.parallel_env import WildfireParallelEnv
+from wildfire_learning.vec_policies import make_vec_policy
 
 
 def rollout(env: WildfireVecEnv, seeds, steps: int, action_seed: int = 0):
@@ -99,11 +99,11 @@ def test_bad_configuration_is_named():
 def test_receding_horizon_beats_random():
     config = EnvConfig(n_aircraft=2, max_duration_s=60.0)
     seeds = list(range(500, 504))
-    rh = evaluate(make_controller("rh"), config, seeds, "rh")
-    random = evaluate(make_controller("random"), config, seeds, "random")
+    rh = evaluate(make_vec_policy("rh"), config, seeds, "rh")
+    random = evaluate(make_vec_policy("random"), config, seeds, "random")
     assert rh.scores.mean() > 1.5 * random.scores.mean()
     assert (rh.scores >= random.scores).sum() >= 3
-    # The ceiling is a property of the fire alone, and no controller scores above it.
+    # The ceiling is a property of the fire alone, and no policy scores above it.
     np.testing.assert_array_equal(rh.score_ceilings, random.score_ceilings)
     assert np.all(rh.scores <= rh.score_ceilings)
     assert np.all(random.scores <= random.score_ceilings)

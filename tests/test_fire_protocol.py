@@ -21,7 +21,7 @@ from wildfire_sim.episode import (
     FireEpisode,
     Mode,
 )
-from wildfire_sim.protocol import (
+from wildfire_sim.fire_protocol import (
     ClockOut,
     DiagnosticsOut,
     FireProtocol,

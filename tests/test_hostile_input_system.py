@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
+from wildfire_learning.vec_policies import make_vec_policy
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow, pytest.mark.timeout(300)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")
@@ -85,7 +85,7 @@ def test_lockstep_under_a_flood_equals_evaluate(
         dds_env,
     )
     config = EnvConfig(n_aircraft=2, shapes=("circular",), wind=(0.2, 0.1), max_duration_s=duration)
-    reference = evaluate(make_controller(str(BELIEF_POLICY)), config, [seed]).episodes[0]
+    reference = evaluate(make_vec_policy(str(BELIEF_POLICY)), config, [seed]).episodes[0]
     assert summary["score"] == reference.score
     assert summary["decisions"] == reference.decisions
     assert fuzzer.poll() is None, "the fuzzer stopped before the run ended"

@@ -34,7 +34,7 @@ import numpy as np
 import pytest
 
 from backend_cases import BACKENDS, require_backend
-from wildfire_ros.network import (
+from wildfire_ros.network_defaults import (
     CONFLICTING_HOST_VARIABLES,
     apply_local_network_defaults,
     host_network_environment,
@@ -306,9 +306,9 @@ def test_a_failure_inside_the_hosts_removes_them(tmp_path: Path) -> None:
 @pytest.mark.timeout(RUN_TIMEOUT_S + 60)
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_four_hosts_equal_eval_and_stay_off_the_network(backend: str, tmp_path: Path) -> None:
-    from wildfire_learning.controllers import make_controller
     from wildfire_learning.env import EnvConfig
     from wildfire_learning.evaluate import evaluate
+    from wildfire_learning.vec_policies import make_vec_policy
 
     require_backend(backend, own_pass_only=True)
     # Two aircraft on four hosts: every agent alone on its host (and one process less to start).
@@ -344,7 +344,7 @@ def test_four_hosts_equal_eval_and_stay_off_the_network(backend: str, tmp_path: 
     config = EnvConfig(
         n_aircraft=n, shapes=("circular",), wind=(0.3, -0.2), max_duration_s=duration
     )
-    reference = evaluate(make_controller("rh"), config, [seed], record=True).episodes[0]
+    reference = evaluate(make_vec_policy("rh"), config, [seed], record=True).episodes[0]
     assert summary["backend"] == backend
     assert summary["score"] == reference.score
     assert summary["score_ceiling"] == reference.score_ceiling

@@ -189,9 +189,9 @@ def test_realtime_with_netem_and_a_partition_recovers(backend: str, tmp_path: Pa
 @pytest.mark.timeout(RUN_TIMEOUT_S + 30)
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_lockstep_partition_resumes_and_equals_eval(backend: str, tmp_path: Path) -> None:
-    from wildfire_learning.controllers import make_controller
     from wildfire_learning.env import EnvConfig
     from wildfire_learning.evaluate import evaluate
+    from wildfire_learning.vec_policies import make_vec_policy
 
     require_backend(backend, own_pass_only=True)
     # The cut starts half a second after the first tick: a lockstep run flies as fast as the
@@ -211,7 +211,7 @@ def test_lockstep_partition_resumes_and_equals_eval(backend: str, tmp_path: Path
     config = EnvConfig(
         n_aircraft=n, shapes=("circular",), wind=(0.3, -0.2), max_duration_s=duration
     )
-    reference = evaluate(make_controller("rh"), config, [seed], record=True).episodes[0]
+    reference = evaluate(make_vec_policy("rh"), config, [seed], record=True).episodes[0]
     assert summary["score"] == reference.score
     assert summary["decisions"] == reference.decisions
     assert reference.trajectory is not None

@@ -7,7 +7,8 @@ whose end ``wfx0`` has an address and carries the default route, so any multicas
 unicast to another host would be transmitted on it. A short ``wildfire run`` inside the namespace
 on each backend must leave ``wfx0``'s ``tx_packets`` where it was. The child environment has none
 of the DDS variables, so what is tested is the runtime's own defaults
-(``wildfire_ros.network``), not the loopback settings ``conftest.py`` puts in ``os.environ``.
+(``wildfire_ros.network_defaults``), not the loopback settings ``conftest.py`` puts in
+``os.environ``.
 
 Controls show that the counter can move: a UDP datagram routed to the default route raises it,
 and the documented multi-host opt-ins (a Cyclone URI with multicast on ``wfx0``;

@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig, WildfireVecEnv, draw_scenario
 from wildfire_learning.evaluate import evaluate
+from wildfire_learning.vec_policies import make_vec_policy
 
 pytestmark = [pytest.mark.dds, pytest.mark.timeout(120)]
 
@@ -87,10 +87,10 @@ def test_lockstep_nodes_equal_the_environment(
         config = EnvConfig(n_aircraft=n, shapes=("circular",), max_duration_s=duration)
         env = WildfireVecEnv(config.__class__(**{**config.__dict__, "observation": "none"}), 1)
         observations = env.reset([seed])
-        controller = make_controller(policy)
-        controller.reset(env)
+        vec_policy = make_vec_policy(policy)
+        vec_policy.reset(env)
         while not env.done.all():
-            observations = env.step(controller.act(env, observations)).observations
+            observations = env.step(vec_policy.act(env, observations)).observations
 
         assert fire.episode.decisions == env.decisions[0]
         assert np.array_equal(fire.episode.burning, env.fire.burning[0])
@@ -101,7 +101,7 @@ def test_lockstep_nodes_equal_the_environment(
         assert aggregator.aggregator.score == env.scores[0]
         assert np.array_equal(aggregator.aggregator.burning, env.belief.burning[0])
         assert np.array_equal(aggregator.aggregator.age_s(), env.belief.age_s()[0])
-        summary = evaluate(make_controller(policy), config, [seed])
+        summary = evaluate(make_vec_policy(policy), config, [seed])
         assert summary.episodes[0].score == aggregator.aggregator.score
     finally:
         for node in nodes:

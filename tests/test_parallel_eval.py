@@ -13,10 +13,10 @@ from typing import Any
 import pytest
 import torch
 
-from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import EvaluationSummary, evaluate
 from wildfire_learning.parallel import EvalJob, evaluate_jobs, split_seeds
+from wildfire_learning.vec_policies import make_vec_policy
 
 WILDFIRE = [str(Path(sys.executable).with_name("wildfire"))]
 TIMINGS = {"seconds_per_decision", "wall_time_s"}
@@ -58,7 +58,7 @@ def test_two_local_workers_fly_the_serial_episodes() -> None:
     (cut,) = evaluate_jobs(jobs[:1], workers=2)
     assert sorted(finished) == [0, 1, 2]
     for job, summary in zip(jobs, parallel, strict=True):
-        serial = evaluate(make_controller(job.policy), job.config, seeds, job.policy, job.record)
+        serial = evaluate(make_vec_policy(job.policy), job.config, seeds, job.policy, job.record)
         assert_same_episodes(summary, serial)
         if job is jobs[0]:
             assert_same_episodes(cut, serial)
@@ -79,7 +79,7 @@ def test_eval_and_report_with_two_workers_print_the_serial_results(tmp_path: Pat
     def report(out: Path, *extra: str) -> dict[str, Any]:
         done = wildfire(
             "report",
-            *("--controllers", "random", "rh-paper", "--scenarios", "circular:2", "arc:3"),
+            *("--policies", "random", "rh-paper", "--scenarios", "circular:2", "arc:3"),
             *("--episodes", "2", "--duration", "5", "--seed", "40", "--json"),
             *("--out", str(out), *extra),
         )
@@ -130,7 +130,7 @@ def test_bad_parallel_input_is_one_line_with_status_2(
     tmp_path: Path, args: list[str], needle: str
 ) -> None:
     if args[0] == "report":
-        args = [*args, "--out", str(tmp_path / "r"), "--controllers", "random"]
+        args = [*args, "--out", str(tmp_path / "r"), "--policies", "random"]
     result = wildfire(*args, "--duration", "1")
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()

@@ -1,4 +1,4 @@
-"""One policy factory: every name is accepted by the agent's pilot and by the controllers,
+"""One policy factory: every name is accepted by the agent's aircraft policy and by the policies,
 and both fly the same actions."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import torch
 
+from wildfire_agent.aircraft_policy import AircraftPolicy
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
-from wildfire_agent.pilot import Pilot
 from wildfire_agent.policies import TorchScriptPolicy, greedy_actions
 from wildfire_agent.policy_names import (
     BUILTIN_POLICIES,
@@ -17,8 +17,8 @@ from wildfire_agent.policy_names import (
     make_policy,
     resolve_policy_path,
 )
-from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
+from wildfire_learning.vec_policies import make_vec_policy
 
 EVERY_NAME = (*BUILTIN_POLICIES, *SHIPPED_POLICIES)
 
@@ -28,31 +28,31 @@ def test_every_name_is_accepted_everywhere(name: str) -> None:
     if name.endswith(".pt"):
         name = str(resolve_policy_path("obs"))
     factory = make_policy(name)
-    assert make_controller(name).observation == factory.observation
-    assert Pilot(name, 1, 2, seed=3).observation == factory.observation
+    assert make_vec_policy(name).observation == factory.observation
+    assert AircraftPolicy(name, 1, 2, seed=3).observation == factory.observation
 
 
 def test_unknown_names_fail_in_one_place() -> None:
-    for build in (make_policy, make_controller, lambda name: Pilot(name, 0, 2, 0)):
+    for build in (make_policy, make_vec_policy, lambda name: AircraftPolicy(name, 0, 2, 0)):
         with pytest.raises(AgentConfigError, match="unknown policy 'genius'"):
             build("genius")
 
 
 @pytest.mark.parametrize("name", ["random", "rh-paper", "obs", "belief"])
 def test_pilot_flies_what_the_controller_flies(name: str) -> None:
-    controller = make_controller(name)
-    config = EnvConfig(n_aircraft=3, observation=controller.observation, max_duration_s=8.0)
+    vec_policy = make_vec_policy(name)
+    config = EnvConfig(n_aircraft=3, observation=vec_policy.observation, max_duration_s=8.0)
     env = WildfireVecEnv(config, 1)
     observations = env.reset([11])
-    controller.reset(env)
-    pilots = [Pilot(name, k, 3, seed=11) for k in range(3)]
+    vec_policy.reset(env)
+    pilots = [AircraftPolicy(name, k, 3, seed=11) for k in range(3)]
     decisions = 0
     while not env.done[0]:
         team = AircraftState(*(np.array(field[0]) for field in env.aircraft))
         burning, belief = env.truth[0], env.belief.burning[0]
         ages = env.belief.age_s()[0]
         flown = [p.decide(team, burning, env.decisions[0] // 25, belief, ages) for p in pilots]
-        actions = controller.act(env, observations)
+        actions = vec_policy.act(env, observations)
         np.testing.assert_array_equal(actions[0], flown)
         observations = env.step(actions).observations
         decisions += 1

@@ -13,10 +13,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
-from wildfire_learning.report import Scenario, results_markdown, table_cells
+from wildfire_learning.results_report import Scenario, results_markdown, table_cells
+from wildfire_learning.vec_policies import make_vec_policy
 
 WILDFIRE = [str(Path(sys.executable).with_name("wildfire"))]
 QUICK = ("--episodes", "2", "--duration", "5")
@@ -26,10 +26,10 @@ def report(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([*WILDFIRE, "report", *args], capture_output=True, text=True, timeout=300)
 
 
-def quick_report(out: Path, controllers: str, scenarios: str, seed: int = 40) -> dict[str, Any]:
-    """JSON summary of a 2-episode, 5 s report (space-separated controllers and scenarios)."""
+def quick_report(out: Path, policies: str, scenarios: str, seed: int = 40) -> dict[str, Any]:
+    """JSON summary of a 2-episode, 5 s report (space-separated policies and scenarios)."""
     done = report(
-        *("--controllers", *controllers.split(), "--scenarios", *scenarios.split()),
+        *("--policies", *policies.split(), "--scenarios", *scenarios.split()),
         *(*QUICK, "--seed", str(seed), "--out", str(out), "--json"),
     )
     assert done.returncode == 0, done.stderr
@@ -43,7 +43,7 @@ def test_report_tables_the_evaluations_and_reuses_them(tmp_path: Path) -> None:
 
     config = EnvConfig(n_aircraft=2, max_duration_s=5.0)
     reference = {
-        name: evaluate(make_controller(name), config, [40, 41]).scores for name in ("random", "rh")
+        name: evaluate(make_vec_policy(name), config, [40, 41]).scores for name in ("random", "rh")
     }
     cells = summary["cells"]["circular_2aircraft"]
     assert cells["rh"]["mean"] == reference["rh"].mean()
@@ -124,7 +124,7 @@ def test_ratios_to_both_baselines_and_the_papers_to_rh_paper() -> None:
         (["--scenarios", "hexagon:2"], "hexagon"),
         (["--scenarios", "circular"], "expected SHAPE:N"),
         (["--scenarios", "circular:0"], "expected SHAPE:N"),
-        (["--controllers", "genius"], "unknown policy 'genius'"),
+        (["--policies", "genius"], "unknown policy 'genius'"),
         (["--max-wind", "2"], "--max-wind"),
         (["--curves", "no-such-run"], "--curves no-such-run"),
     ],
@@ -143,11 +143,10 @@ def test_two_policies_of_one_name_are_refused(tmp_path: Path) -> None:
         (tmp_path / folder).mkdir()
         copies.append(tmp_path / folder / "obs_policy.pt")
         shutil.copy(shipped, copies[-1])
-    result = report("--controllers", *map(str, copies), "--out", str(tmp_path / "r"))
+    result = report("--policies", *map(str, copies), "--out", str(tmp_path / "r"))
     assert result.returncode == 2
     assert result.stderr.strip() == (
-        "wildfire report: error: --controllers: two policies are both named 'obs_policy'; "
-        "rename one"
+        "wildfire report: error: --policies: two policies are both named 'obs_policy'; rename one"
     )
 
 

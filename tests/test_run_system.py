@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
+from wildfire_learning.vec_policies import make_vec_policy
 
 pytestmark = [pytest.mark.dds, pytest.mark.timeout(180)]
 WILDFIRE = [str(Path(sys.executable).parent / "wildfire")]
@@ -65,7 +65,7 @@ def obs_policy(tmp_path_factory: pytest.TempPathFactory) -> Path:
     import torch
 
     from wildfire_agent.policies import save_policy_card
-    from wildfire_learning.network import QNetwork
+    from wildfire_learning.q_network import QNetwork
 
     torch.manual_seed(0)
     path = tmp_path_factory.mktemp("policy") / "obs_policy.pt"
@@ -118,7 +118,7 @@ def test_lockstep_run_equals_evaluate(
     config = EnvConfig(
         n_aircraft=n, shapes=("circular",), wind=(0.3, -0.2), max_duration_s=duration
     )
-    reference = evaluate(make_controller(name), config, [seed], record=True).episodes[0]
+    reference = evaluate(make_vec_policy(name), config, [seed], record=True).episodes[0]
     assert summary["score"] == reference.score
     assert summary["score_ceiling"] == reference.score_ceiling
     assert summary["decisions"] == reference.decisions

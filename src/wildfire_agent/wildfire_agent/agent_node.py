@@ -4,11 +4,11 @@ Subscribes to the truth (``/wildfire/fire_map``), the episode status, every othe
 ``state_stamped``, and the shared belief with its exact ages; publishes ``odom``,
 ``bank_cmd``, ``action``, ``state``, ``state_stamped`` and ``visit`` in its namespace, and its
 decision-deadline statistics on ``/diagnostics``. The decision itself is
-:class:`wildfire_agent.pilot.Pilot`.
+:class:`wildfire_agent.aircraft_policy.AircraftPolicy`.
 
 The node only decodes, calls and encodes: every input is checked
 (:mod:`wildfire_msgs_py.wire_checks`) and handed to
-:class:`wildfire_agent.protocol.AgentProtocol`, which holds the lockstep barrier (the
+:class:`wildfire_agent.agent_protocol.AgentProtocol`, which holds the lockstep barrier (the
 environment's order of visit, decision, state and acknowledgement per tick), the real-time
 100 ms slots and the deadline statistics; what it returns is published here. Messages the
 checks or the protocol refuse (malformed, replays, stamps far ahead) are dropped and
@@ -25,10 +25,7 @@ import sys
 import time
 from typing import Any
 
-from wildfire_agent.dynamics import AircraftState
-from wildfire_agent.errors import AgentConfigError
-from wildfire_agent.policy_names import BUILTIN_POLICIES, EXPECTED_POLICIES
-from wildfire_agent.protocol import (
+from wildfire_agent.agent_protocol import (
     MAX_BANK_RAD,
     PERIOD_S,
     AckOut,
@@ -38,6 +35,9 @@ from wildfire_agent.protocol import (
     Output,
     StateOut,
 )
+from wildfire_agent.dynamics import AircraftState
+from wildfire_agent.errors import AgentConfigError
+from wildfire_agent.policy_names import BUILTIN_POLICIES, EXPECTED_POLICIES
 from wildfire_msgs_py import codecs, contract, system_codecs
 from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.wire_checks import (

@@ -6,7 +6,7 @@
   (2, 100, 100) per aircraft, and the team reward (newly seen burning cells, shared by the
   team) minus ``proximity_weight * sum_j exp(-rho_j / c)`` (:func:`belief_rewards`).
 
-The training environment, the transitions rebuilt from bags and an agent's pilot all call
+The training environment, the transitions rebuilt from bags and an agent's aircraft policy all call
 these functions, so the three see and score an aircraft identically. Every array leads with
 the environment dimension: poses are (E, N).
 """

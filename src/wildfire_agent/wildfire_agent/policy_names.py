@@ -1,5 +1,5 @@
 """What a policy name means, and the one factory that builds it: ``--policy``, the agent's
-``policy`` parameter and every controller of the training package go through
+``policy`` parameter and every policy of the training package go through
 :func:`make_policy`.
 
 * ``rh`` — our receding-horizon baseline (other aircraft predicted at constant bank);
@@ -9,8 +9,8 @@
 * ``obs`` / ``belief`` — the shipped Q-networks (``models/<name>_policy.pt``);
 * anything ending in ``.pt`` or naming an existing file — a TorchScript Q-network.
 
-A policy flies a set of aircraft: one for an agent node's pilot, every aircraft of every
-episode for an environment controller. Either way aircraft ``k`` of episode ``s`` draws its
+A policy flies a set of aircraft: one for an agent node's aircraft policy, every aircraft of every
+episode for an environment policy. Either way aircraft ``k`` of episode ``s`` draws its
 random numbers (random actions, planner restarts) from ``generator(s, AIRCRAFT, k)``, so an
 aircraft flies the same alone, in a batch of episodes, or as its own agent node.
 """
@@ -32,7 +32,7 @@ from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
 from wildfire_agent.receding_horizon import (
     RecedingHorizonConfig,
-    RecedingHorizonController,
+    RecedingHorizonPolicy,
     replan_phases,
 )
 from wildfire_agent.rewards import ObservationRewardWeights
@@ -49,7 +49,7 @@ EXPECTED_POLICIES = "rh, rh-paper, random, obs, belief or a TorchScript .pt file
 MODELS_DIR = Path(__file__).resolve().parents[3] / "models"
 """Shipped policies (``obs_policy.pt``, ``belief_policy.pt``) in the repository."""
 
-Policy = RecedingHorizonController | RandomPolicy | TorchScriptPolicy
+Policy = RecedingHorizonPolicy | RandomPolicy | TorchScriptPolicy
 """A policy flying a set of aircraft (what :meth:`PolicyFactory.build` returns)."""
 
 
@@ -63,7 +63,7 @@ def planner_config(
 
 
 def is_policy_file(policy: str) -> bool:
-    """True when ``policy`` names a TorchScript file rather than a built-in controller."""
+    """True when ``policy`` names a TorchScript file rather than a built-in policy."""
     return policy.endswith(".pt") or Path(policy).exists()
 
 
@@ -114,9 +114,7 @@ class PolicyFactory:
             return RandomPolicy(generators)
         # Aircraft re-plan at staggered decisions, whichever set of them a policy flies.
         phases = replan_phases(aircraft, n_aircraft, self.planner.replan_every)
-        return RecedingHorizonController(
-            generators, self.planner, weights, np.tile(phases, len(seeds))
-        )
+        return RecedingHorizonPolicy(generators, self.planner, weights, np.tile(phases, len(seeds)))
 
 
 def make_policy(

@@ -1,4 +1,4 @@
-"""Receding-horizon baseline controller (docs/model.md, Baselines).
+"""Receding-horizon baseline policy (docs/model.md, Baselines).
 
 Every ``replan_every`` (tau) decisions, each aircraft plans on its own (not jointly) a
 sequence of ``horizon`` (T) bank actions that maximises the summed observation-based reward
@@ -137,7 +137,7 @@ def replan_phases(aircraft: np.ndarray, n_aircraft: int, replan_every: int) -> n
     return (np.asarray(aircraft, dtype=np.int64) * replan_every) // n_aircraft
 
 
-class RecedingHorizonController:
+class RecedingHorizonPolicy:
     """Plans every tau decisions and flies the plan in between, for P aircraft at once.
 
     ``phases`` (P,) staggers the aircraft (see :func:`replan_phases`); each aircraft plans
@@ -199,7 +199,7 @@ class RecedingHorizonController:
 __all__ = [
     "PlanProblem",
     "RecedingHorizonConfig",
-    "RecedingHorizonController",
+    "RecedingHorizonPolicy",
     "plan",
     "replan_phases",
 ]

@@ -9,7 +9,8 @@ as the ignition seed (``wildfire_sim.episode.initial_fire`` of the episode seed 
 The node only decodes, calls and encodes: the lockstep barrier (merge tick ``k`` once every
 aircraft's visit of ``k`` is in), the real-time merges and the recovery of a restarted
 aggregator (it asks the agents on ``/wildfire/belief_request`` and continues from the
-newest ``/wildfire/belief_snapshot``) are :class:`wildfire_belief.protocol.AggregatorProtocol`.
+newest ``/wildfire/belief_snapshot``) are
+:class:`wildfire_belief.aggregator_protocol.AggregatorProtocol`.
 
 Every visit is checked (size, values, frame, stamp) before it is kept: one per aircraft and
 tick, the first one counts; replays of merged ticks, stamps far ahead and malformed windows
@@ -23,7 +24,7 @@ import sys
 import time
 from typing import Any
 
-from wildfire_belief.protocol import (
+from wildfire_belief.aggregator_protocol import (
     NAME,
     AckOut,
     AggregatorProtocol,

@@ -10,8 +10,8 @@ import numpy as np
 
 from wildfire_agent.receding_horizon import PlanProblem, plan
 from wildfire_bench.reference_fire import ReferenceFire
-from wildfire_learning.controllers import RecedingHorizonEnvController
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
+from wildfire_learning.vec_policies import RecedingHorizonVecPolicy
 from wildfire_sim.fire import BatchedFire
 from wildfire_sim.shapes import shape_masks
 
@@ -92,13 +92,13 @@ def capture_plans(
     config = EnvConfig(n_aircraft=n_aircraft, observation="none")
     env = WildfireVecEnv(config, len(seeds))
     observations = env.reset(list(seeds))
-    controller = RecedingHorizonEnvController()
-    controller.reset(env)
-    assert controller.planner is not None
+    policy = RecedingHorizonVecPolicy()
+    policy.reset(env)
+    assert policy.planner is not None
     problems: list[PlanProblem] = []
-    controller.planner.on_plan = lambda problem: problems.append(copy.deepcopy(problem))
+    policy.planner.on_plan = lambda problem: problems.append(copy.deepcopy(problem))
     for _ in range(decisions):
-        observations = env.step(controller.act(env, observations)).observations
+        observations = env.step(policy.act(env, observations)).observations
     return problems
 
 
@@ -115,7 +115,7 @@ def _plan_all(problems: list[PlanProblem], reference: bool) -> tuple[list[np.nda
 
 def bench_receding_horizon(decisions: int = 100, plan_decisions: int = 150) -> dict[str, Any]:
     """Planning cost: the compiled planner against the numpy reference on the same plans,
-    and the controller's wall time per decision for one aircraft on one core.
+    and the policy's wall time per decision for one aircraft on one core.
 
     The plans are those of ``rh`` in two 3-aircraft episodes (``plan_decisions`` decisions
     each); a plan is one aircraft's (a call re-planning several aircraft counts each). Each
@@ -135,12 +135,12 @@ def bench_receding_horizon(decisions: int = 100, plan_decisions: int = 150) -> d
     config = EnvConfig(n_aircraft=2, observation="none", wind=(0.0, 0.0))
     env = WildfireVecEnv(config, 1)
     observations = env.reset([1_000_000])
-    controller = RecedingHorizonEnvController()
-    controller.reset(env)
+    policy = RecedingHorizonVecPolicy()
+    policy.reset(env)
     per_decision: list[float] = []
     for _ in range(decisions):
         tic = time.perf_counter()
-        actions = controller.act(env, observations)
+        actions = policy.act(env, observations)
         per_decision.append((time.perf_counter() - tic) / config.n_aircraft)
         observations = env.step(actions).observations
     times = np.array(per_decision)
@@ -154,7 +154,7 @@ def bench_receding_horizon(decisions: int = 100, plan_decisions: int = 150) -> d
         "rh_ms_per_decision": float(times.mean() * 1e3),
         "rh_plan_ms_worst": worst_plan * 1e3,
         "rh_keeps_up_10hz": bool(times.mean() < 0.1 and worst_plan < 1.0),
-        "rh_config": vars(controller.config),
+        "rh_config": vars(policy.config),
     }
 
 

@@ -263,7 +263,7 @@ def _grid_latency(subscribers: int, messages: int, domain_id: int) -> list[float
 def bench_dds(quick: bool = False, smoke: bool = False) -> dict[str, float | int]:
     """Run the DDS benchmarks; ``quick`` shortens them (about 10 s instead of 25 s), ``smoke``
     runs each once at its smallest size (the figures mean nothing)."""
-    from wildfire_ros.network import apply_local_network_defaults
+    from wildfire_ros.network_defaults import apply_local_network_defaults
 
     apply_local_network_defaults()
     domain_id = _bench_domain_id()

@@ -7,7 +7,7 @@ process spins the :class:`RunMonitorNode` and, with a record directory, the rosb
 
 Every child gets the run's ``ROS_DOMAIN_ID`` (a run-unique id unless the user set one) and
 the loopback-only settings of both DDS implementations (unless the user set their own, see
-:mod:`wildfire_ros.network`), so nothing leaves the machine. A child's output goes to
+:mod:`wildfire_ros.network_defaults`), so nothing leaves the machine. A child's output goes to
 ``<log dir>/<node>.log``; a child is stopped with the launcher even when the launcher is
 killed. When a child dies the launcher names it, its exit status and the last line it
 wrote, finalizes the recording and stops the rest — or, with ``respawn`` in real time,
@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wildfire_bringup.monitor_node import REPORTER, RunMonitorNode
-from wildfire_ros.network import apply_local_network_defaults
+from wildfire_ros.network_defaults import apply_local_network_defaults
 from wildfire_testbed.hosts import LAUNCHER, VirtualHosts
 from wildfire_testbed.netfaults import NetemSpec, Partition, PartitionRecord
 

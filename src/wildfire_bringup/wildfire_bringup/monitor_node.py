@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from wildfire_agent.protocol import MAX_BANK_RAD
+from wildfire_agent.agent_protocol import MAX_BANK_RAD
 from wildfire_bringup.trajectory import stacked_trajectory
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.codecs import diagnostics_from_msg, fuel_grid_from_msg

@@ -1,4 +1,4 @@
-"""``wildfire eval``: score a controller on seeded episodes (docs/model.md, Evaluation)."""
+"""``wildfire eval``: score a policy on seeded episodes (docs/model.md, Evaluation)."""
 
 from __future__ import annotations
 
@@ -15,20 +15,20 @@ from wildfire_cli.common import (
     scenario_settings,
 )
 from wildfire_cli.progress import progress_bar
-from wildfire_learning.controllers import make_controller
 from wildfire_learning.device import resolve_device
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
-from wildfire_learning.report import Scenario
+from wildfire_learning.results_report import Scenario
+from wildfire_learning.vec_policies import make_vec_policy
 from wildfire_sim.shapes import Shape
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "eval",
-        help="score a controller on seeded episodes",
-        description="Fly a controller on episodes with seeds S0..S0+K-1 and report the team "
+        help="score a policy on seeded episodes",
+        description="Fly a policy on episodes with seeds S0..S0+K-1 and report the team "
         "score (newly seen burning cells summed over the flight) and belief metrics.",
     )
     add_episode_arguments(
@@ -70,7 +70,7 @@ def card_key(
 def run(args: argparse.Namespace) -> int:
     shape = Shape.parse(args.shape)
     device = resolve_device(args.device)
-    controller = make_controller(args.policy, device=device)  # a bad name or file fails now
+    vec_policy = make_vec_policy(args.policy, device=device)  # a bad name or file fails now
     if args.card and args.policy in BUILTIN_POLICIES:
         raise UserError(f"--card: policy {args.policy} has no model card (a Q-network has)")
     config = EnvConfig(shapes=(shape.value,), **scenario_settings(args)).validate()
@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
             f"eval {args.policy}", config.max_decisions, enabled=not args.json
         ) as bar:
             summary = evaluate(
-                controller,
+                vec_policy,
                 config,
                 seeds,
                 policy_name=args.policy,

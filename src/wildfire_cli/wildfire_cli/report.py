@@ -1,4 +1,4 @@
-"""``wildfire report``: the paper's results table, reproduced on this project's controllers."""
+"""``wildfire report``: the paper's results table, reproduced on this project's policies."""
 
 from __future__ import annotations
 
@@ -22,7 +22,6 @@ from wildfire_cli.common import (
     print_json,
 )
 from wildfire_cli.progress import progress_bar
-from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, EvaluationSummary, evaluate
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
@@ -33,40 +32,43 @@ from wildfire_learning.plots import (
     read_curve,
     write_seed_curves,
 )
-from wildfire_learning.report import (
+from wildfire_learning.results_report import (
     PAPER_SCENARIOS,
     Scenario,
-    controller_id,
-    controller_label,
     evaluation_path,
     fingerprint,
     load_cached,
     plot_scores,
+    policy_id,
+    policy_label,
     results_markdown,
     store,
     table_cells,
 )
+from wildfire_learning.vec_policies import make_vec_policy
 
-DEFAULT_CONTROLLERS = ("obs", "belief", "rh", "rh-paper", "random")
+DEFAULT_POLICIES = ("obs", "belief", "rh", "rh-paper", "random")
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "report",
-        help="evaluate controllers on the paper's scenarios; write the results table and chart",
-        description="Evaluate every controller on every scenario (the same seeds for all), then "
+        help="evaluate policies on the paper's scenarios; write the results table and chart",
+        description="Evaluate every policy on every scenario (the same seeds for all), then "
         "write DIR/results.md (our table and the paper's ratios beside ours), "
         "DIR/results.json and DIR/scores.png. Each evaluation is kept in DIR/evaluations and "
         "reused while its seeds, wind, flight limit and policy file are unchanged.",
     )
     parser.add_argument(
-        "--controllers",
+        "--policies",
         nargs="+",
-        default=list(DEFAULT_CONTROLLERS),
+        default=list(DEFAULT_POLICIES),
         metavar="POLICY",
         help="rh, rh-paper, random, obs, belief (shipped models) or TorchScript .pt files "
-        f"(default: {' '.join(DEFAULT_CONTROLLERS)})",
+        f"(default: {' '.join(DEFAULT_POLICIES)})",
     )
+    # The option's name before "policy" became the one word for it, kept for old scripts.
+    parser.add_argument("--controllers", nargs="+", dest="policies", help=argparse.SUPPRESS)
     parser.add_argument(
         "--scenarios",
         nargs="+",
@@ -114,27 +116,27 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.set_defaults(handler=run)
 
 
-def check_controllers(names: list[str]) -> list[str]:
-    """Distinct controller names, each known and loadable, with distinct short names (their
+def check_policies(names: list[str]) -> list[str]:
+    """Distinct policy names, each known and loadable, with distinct short names (their
     stored evaluations would overwrite each other)."""
-    controllers = list(dict.fromkeys(names))
-    for name in controllers:
-        make_controller(name)  # a bad name or file fails now, not hours into the report
-    ids = [controller_id(name) for name in controllers]
+    policies = list(dict.fromkeys(names))
+    for name in policies:
+        make_vec_policy(name)  # a bad name or file fails now, not hours into the report
+    ids = [policy_id(name) for name in policies]
     for short in set(ids):
         if ids.count(short) > 1:
-            raise UserError(f"--controllers: two policies are both named {short!r}; rename one")
-    return controllers
+            raise UserError(f"--policies: two policies are both named {short!r}; rename one")
+    return policies
 
 
 def collect_results(
     args: argparse.Namespace,
     scenarios: list[Scenario],
-    controllers: list[str],
+    policies: list[str],
     base: EnvConfig,
     seeds: list[int],
 ) -> tuple[dict[str, dict[str, dict[str, Any]]], list[str]]:
-    """Evaluation JSON of every (scenario, controller), stored or flown now; and the labels
+    """Evaluation JSON of every (scenario, policy), stored or flown now; and the labels
     of those flown now."""
     results: dict[str, dict[str, dict[str, Any]]] = {s.key: {} for s in scenarios}
     evaluated: list[str] = []
@@ -149,28 +151,28 @@ def collect_results(
 
     for scenario in scenarios:
         config = replace(base, n_aircraft=scenario.aircraft, shapes=(scenario.shape,))
-        for controller in controllers:
-            builtin = controller in BUILTIN_POLICIES
-            policy_file = None if builtin else resolve_policy_path(controller)
-            identity = fingerprint(controller, policy_file, seeds, base.max_wind, args.duration)
-            path = evaluation_path(args.out, controller, scenario)
+        for policy in policies:
+            builtin = policy in BUILTIN_POLICIES
+            policy_file = None if builtin else resolve_policy_path(policy)
+            identity = fingerprint(policy, policy_file, seeds, base.max_wind, args.duration)
+            path = evaluation_path(args.out, policy, scenario)
             stored = None if args.fresh else load_cached(path, identity)
-            label = f"{controller_label(controller)} on {scenario.title}"
+            label = f"{policy_label(policy)} on {scenario.title}"
             if stored is None:
-                todo.append((scenario, controller, config, identity, path, label))
+                todo.append((scenario, policy, config, identity, path, label))
             else:
                 show(label, stored, f"stored in {path}")
-                results[scenario.key][controller] = stored
+                results[scenario.key][policy] = stored
 
     def done(index: int, summary: EvaluationSummary, note: str) -> None:
-        scenario, controller, _, identity, path, label = todo[index]
+        scenario, policy, _, identity, path, label = todo[index]
         stored = store(path, identity, summary.to_json())
         evaluated.append(label)
         show(label, stored, note)
-        results[scenario.key][controller] = stored
+        results[scenario.key][policy] = stored
 
     if args.workers > 1 or args.ray is not None:
-        jobs = [EvalJob(controller, config, tuple(seeds)) for _, controller, config, *_ in todo]
+        jobs = [EvalJob(policy, config, tuple(seeds)) for _, policy, config, *_ in todo]
         where = f"on Ray at {args.ray}" if args.ray else f"on {args.workers} workers"
         episodes = len(jobs) * len(seeds)
         with progress_bar(f"report {where}", episodes, enabled=not args.json) as bar:
@@ -182,19 +184,19 @@ def collect_results(
                 progress=lambda flown, total: bar(flown),
             )
     else:
-        for index, (_, controller, config, _, _, label) in enumerate(todo):
+        for index, (_, policy, config, _, _, label) in enumerate(todo):
             start = time.perf_counter()
             with progress_bar(label, config.max_decisions, enabled=not args.json) as bar:
                 summary = evaluate(
-                    make_controller(controller),
+                    make_vec_policy(policy),
                     config,
                     seeds,
-                    policy_name=controller,
+                    policy_name=policy,
                     progress=lambda flown, total: bar(flown),
                 )
             done(index, summary, f"evaluated in {time.perf_counter() - start:.0f} s")
     # In the table's order, whatever order the evaluations finished in.
-    ordered = {s.key: {c: results[s.key][c] for c in controllers} for s in scenarios}
+    ordered = {s.key: {c: results[s.key][c] for c in policies} for s in scenarios}
     evaluated.sort(key=lambda label: [t[5] for t in todo].index(label))
     return ordered, evaluated
 
@@ -252,7 +254,7 @@ def run(args: argparse.Namespace) -> int:
     if args.curves:
         return run_curves(args)
     scenarios = list(dict.fromkeys(Scenario.parse(text) for text in args.scenarios))
-    controllers = check_controllers(args.controllers)
+    policies = check_policies(args.policies)
     out_dir = output_dir(args.out)
     base = EnvConfig(max_duration_s=args.duration)
     if args.max_wind is not None:
@@ -260,16 +262,16 @@ def run(args: argparse.Namespace) -> int:
     base.validate()
     seeds = list(range(args.seed, args.seed + args.episodes))
 
-    results, evaluated = collect_results(args, scenarios, controllers, base, seeds)
+    results, evaluated = collect_results(args, scenarios, policies, base, seeds)
     protocol = (
-        f"Seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} episodes, the same for every controller), "
+        f"Seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} episodes, the same for every policy), "
         f"random wind in [-{base.max_wind:g}, {base.max_wind:g}]^2, flights of at most "
         f"{args.duration:g} s ending when the fire comes within {base.border_cells} cells of the "
         "border (docs/model.md, Evaluation)."
     )
-    markdown = results_markdown(results, scenarios, controllers, protocol)
+    markdown = results_markdown(results, scenarios, policies, protocol)
     (out_dir / "results.md").write_text(markdown)
-    plot_scores(results, scenarios, controllers, out_dir / "scores.png")
+    plot_scores(results, scenarios, policies, out_dir / "scores.png")
     cells = table_cells(results)
     summary_json = {
         "protocol": protocol,
@@ -277,10 +279,10 @@ def run(args: argparse.Namespace) -> int:
         "max_wind": base.max_wind,
         "duration_s": args.duration,
         "scenarios": [s.key for s in scenarios],
-        "controllers": controllers,
+        "policies": policies,
         "cells": {s: {c: vars(cell) for c, cell in row.items()} for s, row in cells.items()},
         "evaluated": evaluated,
-        "reused": len(scenarios) * len(controllers) - len(evaluated),
+        "reused": len(scenarios) * len(policies) - len(evaluated),
         "files": [str(out_dir / name) for name in ("results.md", "results.json", "scores.png")],
     }
     (out_dir / "results.json").write_text(json.dumps(summary_json, indent=1) + "\n")

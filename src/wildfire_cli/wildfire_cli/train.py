@@ -29,8 +29,8 @@ from wildfire_cli.common import (
 from wildfire_learning.checkpoint import CHECKPOINT_FILE, load_checkpoint
 from wildfire_learning.device import resolve_device
 from wildfire_learning.dqn import train
-from wildfire_learning.progress import Status
 from wildfire_learning.train_config import RunOptions, TrainConfig, resolve_config
+from wildfire_learning.train_status import Status
 from wildfire_ros.node_support import interrupt_on_stop_signals
 
 

@@ -1,6 +1,6 @@
 """Q-network architectures to train: the paper's, and a faster one for the belief image.
 
-* ``paper`` — :class:`wildfire_learning.network.QNetwork` on the full image (docs/model.md,
+* ``paper`` — :class:`wildfire_learning.q_network.QNetwork` on the full image (docs/model.md,
   Q-network).
 * ``fast`` — the same network behind a 2 x 2 average pool of the input image, so the
   100 x 100 belief image is seen at 50 x 50 (one pixel = 20 m; burning becomes the burning
@@ -23,7 +23,7 @@ from torch import nn
 from wildfire_agent.approaches import IMAGE_SHAPES, Approach
 from wildfire_agent.pairwise import STATE_SIZE
 from wildfire_learning.errors import LearningError
-from wildfire_learning.network import QNetwork
+from wildfire_learning.q_network import QNetwork
 
 ARCHITECTURES = ("paper", "fast", "lite")
 POOLING = {"fast": 2, "lite": 4}

@@ -71,7 +71,6 @@ from wildfire_learning.checkpoint import (
 from wildfire_learning.experience import TrainingEpisodes, bag_sequences, new_replay
 from wildfire_learning.export import export_policy
 from wildfire_learning.model_card import init_summary, policy_card
-from wildfire_learning.progress import Session, Status, max_rss_mb, report_status
 from wildfire_learning.replay import ReplayBuffer
 from wildfire_learning.train_config import (
     RunOptions,
@@ -80,6 +79,7 @@ from wildfire_learning.train_config import (
     given_values,
     resolve_config,
 )
+from wildfire_learning.train_status import Session, Status, max_rss_mb, report_status
 from wildfire_learning.validation import evaluate_and_export
 
 

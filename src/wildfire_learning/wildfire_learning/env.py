@@ -12,7 +12,7 @@ Action space
 Observation space (``observation="obs"`` or ``"belief"``)
     ``image``: the sensor image (1, 30, 40) in {0, 1}, or the ego belief image (2, 100, 100)
     in [0, 1]; ``state``: normalised pairwise states (K, 5), K = max(N - 1, 1).
-    ``observation="none"`` skips images (for the receding-horizon and random controllers).
+    ``observation="none"`` skips images (for the receding-horizon and random policies).
 Rewards
     ``reward="obs"``: the observation-based reward r1 + r2 + r3 + r4 of each aircraft.
     ``reward="belief"``: the team reward (newly seen burning cells) minus
@@ -27,7 +27,7 @@ Episode end
     The rules of ``wildfire_sim.episode`` (the one rule book): terminated when, after a fire
     step, a burning cell lies within ``border_cells`` of the map edge; truncated after
     ``max_duration_s``. The fire never depends on the aircraft, so a seed fixes the episode
-    length for every controller.
+    length for every policy.
 Decision order (one ``step``)
     bank action -> fly 0.1 s -> every ``DECISIONS_PER_FIRE_STEP``-th decision a fire step ->
     cells within 100 m of any aircraft are visited (belief <- truth, age <- 0) -> rewards ->

@@ -5,11 +5,11 @@ See docs/model.md, Evaluation.
 All episodes run as one batch (each with its own seed, so results do not depend on how many
 run together). Reported per episode: score, flight time, belief IoU at the end (believed
 burning vs burning cells), mean belief age at the burning cells at the end, the score
-ceiling; and the mean wall time a controller needs per aircraft decision.
+ceiling; and the mean wall time a policy needs per aircraft decision.
 
 The score ceiling of an episode (``wildfire_belief.belief.score_ceiling``) is the number of
 cells that burn at some decision of the flight and were not believed burning at its start.
-No controller can score more. It is not reachable either (cells that ignite far from the
+No policy can score more. It is not reachable either (cells that ignite far from the
 aircraft in the last seconds, cells that burn out before any aircraft gets there), but it
 tells how much of the score is still on the table.
 
@@ -29,9 +29,9 @@ from typing import Any
 import numpy as np
 
 from wildfire_belief.belief import belief_iou, mean_age_at_burning, score_ceiling
-from wildfire_learning.controllers import Controller
 from wildfire_learning.env import EnvConfig, StepResult, WildfireVecEnv
 from wildfire_learning.summary_stats import standard_error
+from wildfire_learning.vec_policies import VecPolicy
 
 VALIDATION_SEED_BASE = 1_000_000
 """First validation seed (training seeds stay below)."""
@@ -99,7 +99,7 @@ class EvaluationSummary:
 
 
 def evaluate(
-    controller: Controller,
+    policy: VecPolicy,
     config: EnvConfig,
     seeds: list[int],
     policy_name: str = "",
@@ -107,15 +107,15 @@ def evaluate(
     progress: Callable[[int, int], None] | None = None,
     on_step: Callable[[np.ndarray, StepResult], None] | None = None,
 ) -> EvaluationSummary:
-    """Fly ``controller`` on one episode per seed.
+    """Fly ``policy`` on one episode per seed.
 
     ``progress(done, total)`` is called after every decision with the decisions flown so far,
     ``on_step(active, result)`` with each step's result and the episodes it stepped.
     """
-    config = replace(config, observation=controller.observation)
+    config = replace(config, observation=policy.observation)
     env = WildfireVecEnv(config, len(seeds))
     observations = env.reset(np.asarray(seeds))
-    controller.reset(env)
+    policy.reset(env)
     believed_at_start = env.belief.burning.copy()
     burned_in_flight = env.truth.astype(bool)
     trajectory = [np.stack([env.aircraft.x_m, env.aircraft.y_m], axis=-1)] if record else []
@@ -125,7 +125,7 @@ def evaluate(
     while not env.done.all():
         active = ~env.done
         tic = time.perf_counter()
-        actions = controller.act(env, observations)
+        actions = policy.act(env, observations)
         policy_seconds += time.perf_counter() - tic
         aircraft_decisions += int(active.sum()) * config.n_aircraft
         result = env.step(actions)

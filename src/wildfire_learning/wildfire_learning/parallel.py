@@ -1,6 +1,6 @@
 """Evaluation spread over local processes or a Ray cluster, with exactly the serial results.
 
-An evaluation job (a controller on a scenario over seeds) is cut into tasks of contiguous
+An evaluation job (a policy on a scenario over seeds) is cut into tasks of contiguous
 seeds when there are fewer jobs than workers (one ``eval``; a ``report`` sends whole jobs);
 each task is one :func:`~wildfire_learning.evaluate.evaluate` batch, run in a worker;
 the tasks' episodes, concatenated in seed order, are the job's. They equal a serial run bit
@@ -8,7 +8,7 @@ for bit because a seed flies the same whatever else is in its batch: its fire, s
 aircraft randomness come from its own streams (``seeding.py``), the fire model is
 batch-independent (``fire.py``), each planner draws from its aircraft's own generator and
 sums rewards in a layout-independent order (``receding_horizon.py``), and a Q-network sees
-one ownship at a time (``controllers.QNetworkController``). Only the timings differ:
+one ownship at a time (``policies.QNetworkVecPolicy``). Only the timings differ:
 ``seconds_per_decision`` is the decision-weighted mean of the tasks', ``wall_time_s`` their
 sum (the compute spent, not the elapsed time).
 
@@ -41,10 +41,10 @@ from pathlib import Path
 from typing import Any
 
 from wildfire_agent.policy_names import BUILTIN_POLICIES, PLANNER_POLICIES, resolve_policy_path
-from wildfire_learning.controllers import make_controller
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import EvaluationSummary, evaluate
+from wildfire_learning.vec_policies import make_vec_policy
 
 RAY_CONNECT_TIMEOUT_S = 10.0
 """How long to wait for a Ray address to answer (TCP, then Ray's own handshake) before giving
@@ -53,7 +53,7 @@ up with one line and exit status 2."""
 
 @dataclass(frozen=True)
 class EvalJob:
-    """One controller on one scenario: what a serial :func:`evaluate` call would fly."""
+    """One policy on one scenario: what a serial :func:`evaluate` call would fly."""
 
     policy: str
     """Policy name as given: ``rh``, ``rh-paper``, ``random``, ``obs``, ``belief`` or a path."""
@@ -73,7 +73,7 @@ class EvalTask:
     """Index of the job it belongs to."""
     policy: str
     policy_file: bytes | None
-    """Contents of the policy file (None for a built-in controller)."""
+    """Contents of the policy file (None for a built-in policy)."""
     config: EnvConfig
     seeds: tuple[int, ...]
     record: bool
@@ -124,15 +124,15 @@ def task_cost(task: EvalTask) -> float:
 
 
 def run_task(task: EvalTask) -> EvaluationSummary:
-    """Fly one task (in a worker): build its controller there, evaluate its seeds."""
+    """Fly one task (in a worker): build its policy there, evaluate its seeds."""
     with tempfile.TemporaryDirectory(prefix="wildfire-eval-") as tmp:
         policy = task.policy
         if task.policy_file is not None:
             path = Path(tmp) / (Path(policy).stem + ".pt")
             path.write_bytes(task.policy_file)
             policy = str(path)
-        controller = make_controller(policy, device=task.device)
-        return evaluate(controller, task.config, list(task.seeds), task.policy, task.record)
+        vec_policy = make_vec_policy(policy, device=task.device)
+        return evaluate(vec_policy, task.config, list(task.seeds), task.policy, task.record)
 
 
 def merge(policy: str, parts: Sequence[EvaluationSummary]) -> EvaluationSummary:

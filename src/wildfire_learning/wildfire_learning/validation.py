@@ -13,13 +13,13 @@ from typing import NamedTuple
 import numpy as np
 from torch import nn
 
-from wildfire_learning.controllers import GreedyController
 from wildfire_learning.env import StepResult
 from wildfire_learning.evaluate import EvaluationSummary, evaluate
 from wildfire_learning.export import export_policy
 from wildfire_learning.model_card import policy_card
-from wildfire_learning.progress import Session
 from wildfire_learning.train_config import RunOptions, TrainConfig, TrainState
+from wildfire_learning.train_status import Session
+from wildfire_learning.vec_policies import GreedyVecPolicy
 
 RETURN_TAIL_WEIGHT = 0.01
 """A decision of an episode cut by the time limit counts in the value check only if the
@@ -100,15 +100,15 @@ def evaluate_greedy(
 
     model.eval()
     try:
-        controller = GreedyController(model, config.approach, config.channels_last)
+        policy = GreedyVecPolicy(model, config.approach, config.channels_last)
         summary = evaluate(
-            controller, config.eval_env_config(), config.eval_seeds(), "greedy", on_step=keep
+            policy, config.eval_env_config(), config.eval_seeds(), "greedy", on_step=keep
         )
     finally:
         model.train()
     terminated = np.array([episode.terminated for episode in summary.episodes])
     check = value_check(
-        controller.greedy_q, rewards, active, terminated, config.gamma, config.reward_scale
+        policy.greedy_q, rewards, active, terminated, config.gamma, config.reward_scale
     )
     return summary, check, mean_reward(rewards, active)
 

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 from wildfire_msgs_py.contract import QosSpec
 from wildfire_msgs_py.errors import BackendError, ParameterError
 from wildfire_msgs_py.messages import BACKEND, get_message
-from wildfire_ros.network import apply_local_network_defaults
+from wildfire_ros.network_defaults import apply_local_network_defaults
 
 # Before rclpy or Cyclone creates anything: loopback-only DDS unless the user chose otherwise.
 apply_local_network_defaults()

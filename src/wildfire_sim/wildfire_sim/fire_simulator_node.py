@@ -15,7 +15,7 @@ At the end the phase is ``terminated`` (fire at the border) or ``truncated`` (du
 once every reporter has finished the last tick the status carries ``complete: true``.
 
 The node only decodes, calls and encodes: the episode clock and the acknowledgement barrier
-are :class:`wildfire_sim.protocol.FireProtocol`. Acknowledgements from an unknown reporter,
+are :class:`wildfire_sim.fire_protocol.FireProtocol`. Acknowledgements from an unknown reporter,
 of a tick not yet announced (future) or of one already acknowledged (a replay) are dropped
 and counted in the node's ``/diagnostics`` input-validation status.
 """
@@ -52,7 +52,7 @@ from wildfire_sim.episode import (
     decisions_in,
 )
 from wildfire_sim.errors import FireConfigError
-from wildfire_sim.protocol import (
+from wildfire_sim.fire_protocol import (
     NAME,
     ClockOut,
     DiagnosticsOut,

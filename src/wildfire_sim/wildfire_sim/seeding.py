@@ -22,7 +22,7 @@ class Stream(IntEnum):
     SCENARIO = 1
     """Shape draw, wind draw and aircraft start poses."""
     AIRCRAFT = 2
-    """Per-aircraft policy randomness (random controller, planner restarts, exploration)."""
+    """Per-aircraft policy randomness (random policy, planner restarts, exploration)."""
 
 
 def generator(seed: int, stream: Stream, *index: int) -> np.random.Generator:

@@ -20,8 +20,8 @@ ground station and the aircraft talk over the network only. With two hosts, host
 The launcher's own participant joins host 0 by ``setns(2)`` of the calling (main) thread before
 the runtime creates any DDS entity; the threads DDS starts afterwards inherit the namespace. Node
 processes start under ``ip netns exec <host>``. Every process gets its host's DDS variables
-(:func:`wildfire_ros.network.host_network_environment`): both middlewares bound to the host's
-address, discovery unicast to the K host addresses.
+(:func:`wildfire_ros.network_defaults.host_network_environment`): both middlewares bound to
+the host's address, discovery unicast to the K host addresses.
 
 Network faults (:mod:`wildfire_testbed.netfaults`): with a :class:`NetemSpec` every host's ``wf0``
 gets ``tc qdisc add ... root netem``, or, on a kernel without ``sch_netem``, the bridge namespace
@@ -49,7 +49,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from wildfire_ros.network import CONFLICTING_HOST_VARIABLES, host_network_environment
+from wildfire_ros.network_defaults import CONFLICTING_HOST_VARIABLES, host_network_environment
 from wildfire_testbed.netfaults import NetemSpec
 
 if TYPE_CHECKING:

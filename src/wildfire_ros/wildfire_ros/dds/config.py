@@ -1,7 +1,7 @@
 """Cyclone DDS settings of the DDS backend: the domain id, checked as ROS 2 does.
 
-The loopback-only network configuration lives in :mod:`wildfire_ros.network`, shared with the
-rclpy backend.
+The loopback-only network configuration lives in :mod:`wildfire_ros.network_defaults`,
+shared with the rclpy backend.
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ from wildfire_msgs_py.errors import ShutdownError, TopicNameError
 from wildfire_ros.dds.arguments import RosArguments, parse_ros_arguments
 from wildfire_ros.dds.config import ros_domain_id
 from wildfire_ros.dds.log import set_global_level
-from wildfire_ros.network import apply_local_network_defaults
+from wildfire_ros.network_defaults import apply_local_network_defaults
 
 if TYPE_CHECKING:
     from collections.abc import Sequence

@@ -1,10 +1,10 @@
 """One aircraft's decision, as its agent node takes it (no ROS).
 
-:class:`Pilot` flies aircraft ``k`` of a team of ``n`` with any policy name
-(``policy_names.make_policy``, the factory the environment controllers use too): a
+:class:`AircraftPolicy` flies aircraft ``k`` of a team of ``n`` with any policy name
+(``policy_names.make_policy``, the factory the environment policies use too): a
 receding-horizon planner (``rh`` or ``rh-paper``), uniformly random actions, or a TorchScript
 Q-network (``obs``, ``belief`` or a file). It calls the very functions
-``wildfire_learning.env`` and ``wildfire_learning.controllers`` call, with the same shapes
+``wildfire_learning.env`` and ``wildfire_learning.vec_policies`` call, with the same shapes
 for the team arrays, so for the same inputs it picks the action the environment picks:
 
 * randomness (random actions, planner restarts) comes from ``generator(seed, AIRCRAFT, k)``;
@@ -24,13 +24,13 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
 from wildfire_agent.policy_names import BUILTIN_POLICIES, make_policy
-from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonController
+from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
 from wildfire_agent.rewards import FireFieldMaps, ObservationRewardWeights, fire_field_maps
 
 BUILTIN = BUILTIN_POLICIES
 
 
-class Pilot:
+class AircraftPolicy:
     """Chooses the bank actions of one aircraft (see the module docstring)."""
 
     def __init__(
@@ -50,7 +50,7 @@ class Pilot:
         factory = make_policy(policy, rh_config)
         self.observation = factory.observation
         self.policy = factory.build([seed], [aircraft], n_aircraft, self.weights)
-        if isinstance(self.policy, RecedingHorizonController):
+        if isinstance(self.policy, RecedingHorizonPolicy):
             # Load the compiled planner now, before the run (numba and its cached kernels,
             # ~0.6 s), not in the first real-time slot that plans.
             from wildfire_agent.planner_compiled import compile_kernels
@@ -89,7 +89,7 @@ class Pilot:
         if isinstance(self.policy, RandomPolicy):
             return int(self.policy.act()[0])
         team_2d = AircraftState(*(np.asarray(field)[None] for field in team))  # (1, n)
-        if isinstance(self.policy, RecedingHorizonController):
+        if isinstance(self.policy, RecedingHorizonPolicy):
             others = pairwise.other_indices(self.n_aircraft)[k]
             own = AircraftState(*(field[0, k : k + 1] for field in team_2d))
             peers = AircraftState(*(field[0, others][None] for field in team_2d))
@@ -107,4 +107,4 @@ class Pilot:
         return int(network.act(image, states)[0])
 
 
-__all__ = ["BUILTIN", "Pilot"]
+__all__ = ["BUILTIN", "AircraftPolicy"]

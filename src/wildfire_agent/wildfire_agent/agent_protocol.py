@@ -28,9 +28,9 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from wildfire_agent import dynamics
+from wildfire_agent.aircraft_policy import AircraftPolicy
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
-from wildfire_agent.pilot import Pilot
 from wildfire_agent.receding_horizon import RecedingHorizonConfig
 from wildfire_belief.visits import visit_windows, window_values
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
@@ -193,7 +193,7 @@ class AgentProtocol:
         k: int,
         n: int,
         mode: Mode,
-        pilot: Pilot,
+        policy: AircraftPolicy,
         start: AircraftState,
         name_tag: str,
         now_ns: Callable[[], int],
@@ -202,7 +202,7 @@ class AgentProtocol:
         self.k = k
         self.n = n
         self.mode = mode
-        self.pilot = pilot
+        self.policy = policy
         self.state = start
         self.name_tag = name_tag
         self.now_ns = now_ns
@@ -232,7 +232,7 @@ class AgentProtocol:
         aggregator that restarts (lockstep runs never respawn): a lockstep agent flying
         another policy skips two 100 x 100 grids per tick.
         """
-        return self.pilot.needs_belief or self.mode is Mode.REALTIME
+        return self.policy.needs_belief or self.mode is Mode.REALTIME
 
     # --- stamps -------------------------------------------------------------------------------
 
@@ -264,8 +264,8 @@ class AgentProtocol:
             heading_rad=np.array([p["start_heading"]]),
             bank_steps=np.array([p["start_bank_steps"]], dtype=np.int64),
         )
-        pilot = Pilot(p["policy"], k, n, p["seed"], planner)
-        return cls(k, n, Mode(p["mode"]), pilot, start, f"{AIRCRAFT_PREFIX}{k}", now_ns)
+        policy = AircraftPolicy(p["policy"], k, n, p["seed"], planner)
+        return cls(k, n, Mode(p["mode"]), policy, start, f"{AIRCRAFT_PREFIX}{k}", now_ns)
 
     # --- inputs -------------------------------------------------------------------------------
 
@@ -345,10 +345,10 @@ class AgentProtocol:
         late = max(0.0, now_s - self.slot_start)
         team = self.latest_team()
         belief, ages = self.latest_belief()
-        if team is None or (self.pilot.needs_belief and belief is None):
+        if team is None or (self.policy.needs_belief and belief is None):
             return []
         fire_stamp, burning = newest_fire
-        action = self.pilot.decide(team, burning, fire_stamp, belief, ages)
+        action = self.policy.decide(team, burning, fire_stamp, belief, ages)
         out: list[Output] = [self.fly(action, tick=0), VisitOut(self.stamp(0), self.visit(burning))]
         self.stats.add(self.clock() - now_s, late)
         out += self.deadline(0)
@@ -394,12 +394,12 @@ class AgentProtocol:
             if team is None:
                 return out
             belief = ages = None
-            if self.pilot.needs_belief:
+            if self.policy.needs_belief:
                 belief, ages = self.belief.get(stamp), self.ages.get(stamp)
                 if belief is None or ages is None:
                     return out
             start = self.clock()
-            action = self.pilot.decide(team, burning, fire_stamp, belief, ages)
+            action = self.policy.decide(team, burning, fire_stamp, belief, ages)
             out.append(self.fly(action, tick + 1))
             self.stats.add(self.clock() - start, 0.0)
             out += self.deadline(tick + 1)

@@ -1,12 +1,12 @@
-"""Results report: the paper's results table, reproduced on this project's controllers.
+"""Results report: the paper's results table, reproduced on this project's policies.
 
 See docs/model.md, Evaluation.
 
-Every (controller, scenario) pair is one :func:`~wildfire_learning.evaluate.evaluate` run on
-the same seeds, so a row compares controllers episode by episode. Each result is kept as JSON
+Every (policy, scenario) pair is one :func:`~wildfire_learning.evaluate.evaluate` run on
+the same seeds, so a row compares policies episode by episode. Each result is kept as JSON
 in the report's ``evaluations/`` folder together with what produced it (the seeds, wind bound,
 flight limit and, for a Q-network, the SHA-256 of its file): a later report reuses it while
-those are unchanged, so adding a scenario or a controller flies only what is new. Results of
+those are unchanged, so adding a scenario or a policy flies only what is new. Results of
 ``rh``, ``rh-paper`` and ``random`` are keyed by their settings only; pass ``fresh`` after
 changing their code.
 
@@ -31,16 +31,16 @@ from wildfire_learning.errors import LearningError
 from wildfire_learning.summary_stats import standard_error
 from wildfire_sim.shapes import Shape
 
-CONTROLLER_LABELS = {
+POLICY_LABELS = {
     "obs": "observation DQN",
     "belief": "belief DQN",
     "rh": "receding horizon",
     "rh-paper": "receding horizon (paper)",
     "random": "random",
 }
-"""Column titles of the built-in controllers (a .pt file is titled by its name)."""
+"""Column titles of the built-in policies (a .pt file is titled by its name)."""
 BASELINE = "rh"
-"""Ratios of the main table are to this controller's score on the same seeds."""
+"""Ratios of the main table are to this policy's score on the same seeds."""
 PAPER_BASELINE = "rh-paper"
 """The paper's (uncoordinated) receding horizon: the paper's ratios are set beside ours to it."""
 PAPER_RESULTS: dict[str, dict[str, tuple[float, float]]] = {
@@ -94,22 +94,24 @@ class Scenario:
         return f"{'T' if self.shape == 't' else self.shape}, {self.aircraft} aircraft"
 
 
-def controller_id(controller: str) -> str:
-    """Short name of a controller in file names: its own, or a policy file's stem."""
-    return controller if controller in CONTROLLER_LABELS else Path(controller).stem
+def policy_id(policy: str) -> str:
+    """Short name of a policy in file names: its own, or a policy file's stem."""
+    return policy if policy in POLICY_LABELS else Path(policy).stem
 
 
-def controller_label(controller: str) -> str:
-    """Column title of a controller name or policy file."""
-    return CONTROLLER_LABELS.get(controller, controller_id(controller))
+def policy_label(policy: str) -> str:
+    """Column title of a policy name or policy file."""
+    return POLICY_LABELS.get(policy, policy_id(policy))
 
 
 def fingerprint(
-    controller: str, policy_file: Path | None, seeds: list[int], max_wind: float, duration_s: float
+    policy: str, policy_file: Path | None, seeds: list[int], max_wind: float, duration_s: float
 ) -> dict[str, Any]:
     """What an evaluation depends on, beyond the code: equal fingerprints, equal results."""
     identity: dict[str, Any] = {
-        "controller": controller,
+        # Keyed "controller", the word for a policy before it had one word: stored results
+        # (docs/results/evaluations) stay reusable.
+        "controller": policy,
         "seeds": seeds,
         "max_wind": max_wind,
         "duration_s": duration_s,
@@ -119,8 +121,8 @@ def fingerprint(
     return identity
 
 
-def evaluation_path(out_dir: Path, controller: str, scenario: Scenario) -> Path:
-    return out_dir / "evaluations" / f"{controller_id(controller)}_{scenario.key}.json"
+def evaluation_path(out_dir: Path, policy: str, scenario: Scenario) -> Path:
+    return out_dir / "evaluations" / f"{policy_id(policy)}_{scenario.key}.json"
 
 
 def load_cached(path: Path, identity: dict[str, Any]) -> dict[str, Any] | None:
@@ -143,7 +145,7 @@ def store(path: Path, identity: dict[str, Any], result: dict[str, Any]) -> dict[
 
 @dataclass(frozen=True)
 class Cell:
-    """One controller on one scenario, with its comparison to both baselines."""
+    """One policy on one scenario, with its comparison to both baselines."""
 
     mean: float
     sem: float
@@ -172,15 +174,15 @@ def paired_ratio(
 def table_cells(
     results: dict[str, dict[str, dict[str, Any]]],
 ) -> dict[str, dict[str, Cell]]:
-    """``results[scenario_key][controller]`` (evaluation JSON) -> cells with ratios."""
+    """``results[scenario_key][policy]`` (evaluation JSON) -> cells with ratios."""
     cells: dict[str, dict[str, Cell]] = {}
-    for scenario, by_controller in results.items():
+    for scenario, by_policy in results.items():
         row: dict[str, Cell] = {}
-        for controller, result in by_controller.items():
+        for policy, result in by_policy.items():
             scores = np.array(result["scores"])
-            ours = by_controller.get(BASELINE) if controller != BASELINE else None
-            paper = by_controller.get(PAPER_BASELINE) if controller != PAPER_BASELINE else None
-            row[controller] = Cell(
+            ours = by_policy.get(BASELINE) if policy != BASELINE else None
+            paper = by_policy.get(PAPER_BASELINE) if policy != PAPER_BASELINE else None
+            row[policy] = Cell(
                 float(result["score_mean"]),
                 float(result["score_sem"]),
                 float(result["ceiling_fraction"]),
@@ -194,30 +196,30 @@ def table_cells(
 def results_markdown(
     results: dict[str, dict[str, dict[str, Any]]],
     scenarios: list[Scenario],
-    controllers: list[str],
+    policies: list[str],
     protocol: str,
 ) -> str:
     """The report: our table, then the paper's ratios beside ours."""
     cells = table_cells(results)
-    titles = [controller_label(c) for c in controllers]
+    titles = [policy_label(c) for c in policies]
     lines = [
         "# Results",
         "",
         protocol,
         "",
         "Mean +- standard error of the score; in brackets the ratio to our receding horizon",
-        "(`rh`) on the same seeds and the fraction of the score ceiling (the most any controller",
+        "(`rh`) on the same seeds and the fraction of the score ceiling (the most any policy",
         "could score on those fires).",
         "",
         "| scenario | ceiling | " + " | ".join(titles) + " |",
         "|---" * (len(titles) + 2) + "|",
     ]
     for scenario in scenarios:
-        by_controller = results[scenario.key]
-        ceiling = next(iter(by_controller.values()))["score_ceiling_mean"]
+        by_policy = results[scenario.key]
+        ceiling = next(iter(by_policy.values()))["score_ceiling_mean"]
         row = [scenario.title, f"{ceiling:.1f}"]
-        for controller in controllers:
-            cell = cells[scenario.key][controller]
+        for policy in policies:
+            cell = cells[scenario.key][policy]
             ratio = f"{cell.ratio:.2f}x, " if cell.ratio is not None else ""
             row.append(f"{cell.mean:.1f} +- {cell.sem:.1f} ({ratio}{cell.ceiling_fraction:.0%})")
         lines.append("| " + " | ".join(row) + " |")
@@ -266,7 +268,7 @@ def results_markdown(
 def plot_scores(
     results: dict[str, dict[str, dict[str, Any]]],
     scenarios: list[Scenario],
-    controllers: list[str],
+    policies: list[str],
     path: Path,
 ) -> None:
     """Grouped bars (mean +- s.e.) per scenario, with each scenario's ceiling marked."""
@@ -275,20 +277,20 @@ def plot_scores(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    width = 0.8 / len(controllers)
+    width = 0.8 / len(policies)
     x = np.arange(len(scenarios))
     fig, ax = plt.subplots(figsize=(1.6 + 1.5 * len(scenarios), 4))
-    for i, controller in enumerate(controllers):
-        means = [results[s.key][controller]["score_mean"] for s in scenarios]
-        sems = [results[s.key][controller]["score_sem"] for s in scenarios]
-        offset = (i - (len(controllers) - 1) / 2) * width
-        ax.bar(x + offset, means, width, yerr=sems, capsize=2, label=controller_label(controller))
+    for i, policy in enumerate(policies):
+        means = [results[s.key][policy]["score_mean"] for s in scenarios]
+        sems = [results[s.key][policy]["score_sem"] for s in scenarios]
+        offset = (i - (len(policies) - 1) / 2) * width
+        ax.bar(x + offset, means, width, yerr=sems, capsize=2, label=policy_label(policy))
     ceilings = [next(iter(results[s.key].values()))["score_ceiling_mean"] for s in scenarios]
     ax.hlines(ceilings, x - 0.45, x + 0.45, colors="black", linestyles="--", label="ceiling")
     ax.set_xticks(x, [s.title for s in scenarios], fontsize=8)
     ax.set_ylabel("Average Reward Accumulated")
     # Above the axes: inside, it would cover the tallest bars or a ceiling.
-    ax.legend(fontsize=7, ncol=len(controllers) + 1, loc="lower center", bbox_to_anchor=(0.5, 1.0))
+    ax.legend(fontsize=7, ncol=len(policies) + 1, loc="lower center", bbox_to_anchor=(0.5, 1.0))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -301,13 +303,13 @@ __all__ = [
     "PAPER_SCENARIOS",
     "Cell",
     "Scenario",
-    "controller_id",
-    "controller_label",
     "evaluation_path",
     "fingerprint",
     "load_cached",
     "paired_ratio",
     "plot_scores",
+    "policy_id",
+    "policy_label",
     "results_markdown",
     "store",
     "table_cells",

@@ -1,8 +1,9 @@
-"""Controllers that fly every aircraft of a :class:`WildfireVecEnv`.
+"""Policies that fly every aircraft of a :class:`WildfireVecEnv`.
 
 Each wraps, for the whole batch, the policy that ``wildfire_agent.policy_names.make_policy``
-builds from a policy name (the factory an agent's pilot uses too): a receding-horizon planner
-(``rh`` or ``rh-paper``), the random controller, or a TorchScript Q-network. Per-aircraft
+builds from a policy name (the factory an agent's aircraft policy uses too): a
+receding-horizon planner (``rh`` or ``rh-paper``), the random policy, or a TorchScript
+Q-network. Per-aircraft
 randomness comes from ``seeding.Stream.AIRCRAFT`` of the episode seed, so an aircraft flies
 the same in a batch of 20 episodes, alone, or as its own agent node.
 """
@@ -28,11 +29,11 @@ from wildfire_agent.policy_names import (
     make_policy,
     resolve_policy_path,
 )
-from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonController
+from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
 from wildfire_learning.env import WildfireVecEnv
 
 
-class Controller(Protocol):
+class VecPolicy(Protocol):
     """Chooses the actions of every aircraft of every environment."""
 
     observation: str
@@ -62,7 +63,7 @@ def build_for(factory: PolicyFactory, env: WildfireVecEnv) -> Policy:
     return factory.build(env.seeds, np.arange(n), n, env.config.obs_weights)
 
 
-class RandomController:
+class RandomVecPolicy:
     """Uniformly random actions."""
 
     observation = "none"
@@ -80,7 +81,7 @@ class RandomController:
         return self.policy.act().reshape(env.num_envs, env.config.n_aircraft)
 
 
-class RecedingHorizonEnvController:
+class RecedingHorizonVecPolicy:
     """A receding-horizon baseline (``rh`` or ``rh-paper`` by ``config.model_others``), every
     aircraft planning on its own."""
 
@@ -88,11 +89,11 @@ class RecedingHorizonEnvController:
 
     def __init__(self, config: RecedingHorizonConfig | None = None) -> None:
         self.config = config or RecedingHorizonConfig()
-        self.planner: RecedingHorizonController | None = None
+        self.planner: RecedingHorizonPolicy | None = None
 
     def reset(self, env: WildfireVecEnv) -> None:
         planner = build_for(PolicyFactory(planner=self.config), env)
-        assert isinstance(planner, RecedingHorizonController)
+        assert isinstance(planner, RecedingHorizonPolicy)
         self.planner = planner
 
     def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
@@ -105,7 +106,7 @@ class RecedingHorizonEnvController:
         return actions.reshape(env.num_envs, n)
 
 
-class QNetworkController:
+class QNetworkVecPolicy:
     """Greedy TorchScript Q-network (observation- or belief-based per its card).
 
     Each ownship is evaluated on its own (a batch of one image and its K pairwise states),
@@ -135,10 +136,10 @@ class QNetworkController:
         return actions
 
 
-class GreedyController:
-    """The network being trained as an evaluation controller, all aircraft in one batch.
+class GreedyVecPolicy:
+    """The network being trained as an evaluation policy, all aircraft in one batch.
 
-    (Deployment evaluates each ownship alone, see :class:`QNetworkController`; a batch may
+    (Deployment evaluates each ownship alone, see :class:`QNetworkVecPolicy`; a batch may
     pick other kernels and so differ in the last bits — fine for a learning curve.)
     ``greedy_q`` keeps, per decision, the (E, N) value the network gives the action it took.
     """
@@ -165,19 +166,19 @@ class GreedyController:
         return actions.reshape(e, n)
 
 
-def make_controller(
+def make_vec_policy(
     policy: str,
     rh_config: RecedingHorizonConfig | None = None,
     device: str | torch.device = "cpu",
-) -> Controller:
-    """Controller for any policy name (``wildfire_agent.policy_names.make_policy``);
+) -> VecPolicy:
+    """VecPolicy for any policy name (``wildfire_agent.policy_names.make_policy``);
     ``rh_config`` sets T, tau and restarts of the planners, ``device`` where a Q-network runs."""
     factory = make_policy(policy, rh_config, device)
     if factory.network is not None:
-        return QNetworkController(factory.network)
+        return QNetworkVecPolicy(factory.network)
     if factory.planner is not None:
-        return RecedingHorizonEnvController(factory.planner)
-    return RandomController()
+        return RecedingHorizonVecPolicy(factory.planner)
+    return RandomVecPolicy()
 
 
 # Policy names are re-exported for callers that import them from here (cli/run.py, bench).
@@ -185,12 +186,12 @@ __all__ = [
     "BUILTIN_POLICIES",
     "MODELS_DIR",
     "SHIPPED_POLICIES",
-    "Controller",
-    "GreedyController",
-    "QNetworkController",
-    "RandomController",
-    "RecedingHorizonEnvController",
+    "GreedyVecPolicy",
+    "QNetworkVecPolicy",
+    "RandomVecPolicy",
+    "RecedingHorizonVecPolicy",
+    "VecPolicy",
     "build_for",
-    "make_controller",
+    "make_vec_policy",
     "resolve_policy_path",
 ]
