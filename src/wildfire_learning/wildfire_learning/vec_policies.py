@@ -21,13 +21,9 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.pairwise import other_indices
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy, greedy_actions_and_values
 from wildfire_agent.policy_names import (
-    BUILTIN_POLICIES,
-    MODELS_DIR,
-    SHIPPED_POLICIES,
     Policy,
     PolicyFactory,
     make_policy,
-    resolve_policy_path,
 )
 from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
 from wildfire_learning.env import WildfireVecEnv
@@ -181,11 +177,7 @@ def make_vec_policy(
     return RandomVecPolicy()
 
 
-# Policy names are re-exported for callers that import them from here (cli/run.py, bench).
 __all__ = [
-    "BUILTIN_POLICIES",
-    "MODELS_DIR",
-    "SHIPPED_POLICIES",
     "GreedyVecPolicy",
     "QNetworkVecPolicy",
     "RandomVecPolicy",
@@ -193,5 +185,4 @@ __all__ = [
     "VecPolicy",
     "build_for",
     "make_vec_policy",
-    "resolve_policy_path",
 ]
