@@ -4,7 +4,7 @@
 its help in the field's metadata), :class:`RunOptions` where and how a run writes its files,
 :class:`TrainState` the counters a checkpoint saves, and :func:`replay_shapes` the shapes of
 a replay frame. The training loop (``dqn.py``) and its parts (``checkpoint.py``,
-``experience.py``, ``progress.py``, ``validation.py``, ``model_card.py``) import them from
+``experience.py``, ``train_status.py``, ``validation.py``, ``model_card.py``) import them from
 here, and this module imports none of those, so the imports point one way.
 
 The config of a resumed run is one merge, :func:`resolve_config`: the defaults, under the
