@@ -9,9 +9,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 workers="${WILDFIRE_TEST_WORKERS:-2}"
-parallel=()
+# The slowest tests of each pass are listed at its end: where the suite's time goes.
+parallel=(--durations=15)
 if [ "$workers" -gt 1 ]; then
-  parallel=(-n "$workers" --dist loadgroup)
+  parallel+=(-n "$workers" --dist loadgroup)
 fi
 if .venv/bin/python -c 'import rclpy' 2>/dev/null; then
   WILDFIRE_ROS_BACKEND=rclpy .venv/bin/python -m pytest ${parallel[@]+"${parallel[@]}"} "$@"
