@@ -10,15 +10,15 @@ cd "$(dirname "$0")/.."
 scripts/setup.sh
 workers="${WILDFIRE_TEST_WORKERS:-2}"
 # The slowest tests of each pass are listed at its end: where the suite's time goes.
-parallel=(--durations=15)
+pytest_args=(--durations=15)
 if [ "$workers" -gt 1 ]; then
-  parallel+=(-n "$workers" --dist loadgroup)
+  pytest_args+=(-n "$workers" --dist loadgroup)
 fi
 if .venv/bin/python -c 'import rclpy' 2>/dev/null; then
-  WILDFIRE_ROS_BACKEND=rclpy .venv/bin/python -m pytest ${parallel[@]+"${parallel[@]}"} "$@"
+  WILDFIRE_ROS_BACKEND=rclpy .venv/bin/python -m pytest "${pytest_args[@]}" "$@"
   echo "test: the ROS-facing tests again, on the Cyclone DDS layer (WILDFIRE_ROS_BACKEND=dds)"
-  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest ${parallel[@]+"${parallel[@]}"} -m dds "$@"
+  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest "${pytest_args[@]}" -m dds "$@"
 else
   echo "test: rclpy does not import here: every test runs on the Cyclone DDS layer"
-  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest ${parallel[@]+"${parallel[@]}"} "$@"
+  WILDFIRE_ROS_BACKEND=dds .venv/bin/python -m pytest "${pytest_args[@]}" "$@"
 fi
