@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import signal
+import struct
 import subprocess
 import sys
 from pathlib import Path
@@ -12,11 +13,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+from tensorboardX.proto import event_pb2
 
 from wildfire_cli import main as cli_main
 from wildfire_learning.architectures import build_q_network
 from wildfire_learning.checkpoint import CHECKPOINT_FILE, load_checkpoint
 from wildfire_learning.plots import CURVE_CSV, CURVE_PNG
+from wildfire_learning.scalar_log import log_dir
 
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))
 # Seconds-long runs: few envs, a small replay, short episodes, one evaluation episode.
@@ -81,6 +84,23 @@ def test_train_smoke_writes_policy_curve_and_checkpoint(
     assert float(rows[0]["reward_mean"]) == float(rows[0]["reward_mean"])  # a number, not nan
 
 
+def tensorboard_scalars(folder: Path) -> dict[str, list[tuple[int, float]]]:
+    """Every scalar of the TensorBoard event files in ``folder``, by tag, in file order.
+
+    Read without TensorBoard: an event file is TFRecords (length, its CRC, an ``Event``
+    protobuf, its CRC), the format ``tensorboardX`` writes."""
+    scalars: dict[str, list[tuple[int, float]]] = {}
+    for path in sorted(folder.glob("events.out.tfevents.*")):
+        data, at = path.read_bytes(), 0
+        while at < len(data):
+            (length,) = struct.unpack("<Q", data[at : at + 8])
+            event = event_pb2.Event.FromString(data[at + 12 : at + 12 + length])
+            at += 12 + length + 4
+            for value in event.summary.value:
+                scalars.setdefault(value.tag, []).append((event.step, value.simple_value))
+    return scalars
+
+
 def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> None:
     run_dir = tmp_path / "run"
     first = run_json(
@@ -105,6 +125,11 @@ def test_resume_continues_counters_and_export_matches_module(tmp_path: Path) -> 
     assert after["state"]["iterations"] == 10 and before["state"]["iterations"] == 6
     weights = "head.4.weight"
     assert not torch.equal(before["q_network"][weights], after["q_network"][weights])
+
+    # Both sessions logged every evaluation to TensorBoard, at its sample count.
+    scores = tensorboard_scalars(log_dir(run_dir))["eval/score"]
+    curve = after["state"]["curve"]
+    assert scores == [(r["samples"], pytest.approx(r["score_mean"])) for r in curve]
 
     # Every evaluation exported the network; the best-scoring one is kept too.
     best = json.loads((run_dir / "best_obs_policy.json").read_text())

@@ -72,6 +72,7 @@ from wildfire_learning.experience import TrainingEpisodes, bag_sequences, new_re
 from wildfire_learning.export import export_policy
 from wildfire_learning.model_card import init_summary, policy_card
 from wildfire_learning.replay import ReplayBuffer
+from wildfire_learning.scalar_log import ScalarLog
 from wildfire_learning.train_config import (
     RunOptions,
     TrainConfig,
@@ -199,70 +200,90 @@ def train(
     total_iterations = config.target_iterations()
     # Offline runs, and runs given ``iterations``, stop on iterations; the others on samples.
     by_iterations = options.offline or config.iterations > 0
-    try:
-        while (
-            state.iterations < total_iterations
-            if by_iterations
-            else state.samples < config.total_samples
-        ):
-            if episodes is None:
-                epsilon, phase, owed = 0.0, "training (offline)", state.iterations + 1
-            else:
-                # --- act: every aircraft of every environment, one forward pass -----------
-                epsilon = config.epsilon_at(state.samples)
-                prefilling = len(replay) < config.learning_starts
-                phase = "prefilling replay" if prefilling else "training"
-                greedy = np.zeros((num_envs, n), dtype=np.int64)
-                if not prefilling:
-                    images, pair_states = episodes.aircraft()
-                    greedy = greedy_actions(q_network, images, pair_states, config.channels_last)
-                    greedy = greedy.reshape(num_envs, n)
-                actions = episodes.exploration.actions(greedy, 1.0 if prefilling else epsilon, rng)
-                # --- step and store: every aircraft's transition goes to the one replay ---
-                taken = episodes.step(actions, replay, state)
-                state.samples += taken
-                if prefilling:
-                    session.prefill_samples += taken
-                owed = state.iterations
-                if len(replay) >= config.learning_starts:
-                    session.start_training(state)
-                    # One iteration per train_frequency samples since the prefill ended.
-                    since = state.samples - session.samples0
-                    owed = session.iterations0 + since // config.train_frequency
-            if config.iterations > 0:
-                owed = min(owed, config.iterations)
-
-            # --- learn: the iterations owed, target copies, evaluations, checkpoints -------
-            while state.iterations < owed:
-                state.last_loss = td_update(
-                    q_network, target_network, optimizer, replay, config, rng
-                )
-                state.iterations += 1
-                # CleanRL copies the target on global steps; here on training iterations,
-                # as in the paper (docs/model.md, Q-network).
-                if state.iterations % config.target_network_frequency == 0:
-                    target_network.load_state_dict(q_network.state_dict())
-                if config.eval_every and state.iterations % config.eval_every == 0:
-                    report_status(report, state, config, "evaluating")
-                    evaluate_and_export(q_network, config, options, state, session, bag_transitions)
-                if config.checkpoint_every and state.iterations % config.checkpoint_every == 0:
-                    state.wall_time_s = session.wall_time_s()
-                    save_checkpoint(
-                        run_dir, config, state, q_network, target_network, optimizer, replay, rng
+    # TensorBoard scalars beside the CSV curve; closed (flushed) however the session ends.
+    with ScalarLog(run_dir, state.samples, state.iterations) as scalars:
+        try:
+            while (
+                state.iterations < total_iterations
+                if by_iterations
+                else state.samples < config.total_samples
+            ):
+                if episodes is None:
+                    epsilon, phase, owed = 0.0, "training (offline)", state.iterations + 1
+                else:
+                    # --- act: every aircraft of every environment, one forward pass -----------
+                    epsilon = config.epsilon_at(state.samples)
+                    prefilling = len(replay) < config.learning_starts
+                    phase = "prefilling replay" if prefilling else "training"
+                    greedy = np.zeros((num_envs, n), dtype=np.int64)
+                    if not prefilling:
+                        images, pair_states = episodes.aircraft()
+                        greedy = greedy_actions(
+                            q_network, images, pair_states, config.channels_last
+                        )
+                        greedy = greedy.reshape(num_envs, n)
+                    actions = episodes.exploration.actions(
+                        greedy, 1.0 if prefilling else epsilon, rng
                     )
-            if episodes is not None or state.iterations % 10 == 0:  # offline: every 10th pass
-                report_status(report, state, config, phase, epsilon)
-    except KeyboardInterrupt:
-        # Ctrl-C or SIGTERM: keep what was learnt, `--resume` continues from here.
-        state.wall_time_s = session.wall_time_s()
-        save_checkpoint(run_dir, config, state, q_network, target_network, optimizer, replay, rng)
-        raise
-    samples_per_s, iterations_per_s = session.close(state)
+                    # --- step and store: every aircraft's transition goes to the one replay ---
+                    taken = episodes.step(actions, replay, state)
+                    state.samples += taken
+                    if prefilling:
+                        session.prefill_samples += taken
+                    owed = state.iterations
+                    if len(replay) >= config.learning_starts:
+                        session.start_training(state)
+                        # One iteration per train_frequency samples since the prefill ended.
+                        since = state.samples - session.samples0
+                        owed = session.iterations0 + since // config.train_frequency
+                if config.iterations > 0:
+                    owed = min(owed, config.iterations)
 
-    # --- final evaluation, checkpoint, export -------------------------------------------------
-    if not state.curve or state.curve[-1]["iteration"] != state.iterations:
-        report_status(report, state, config, "evaluating")
-        evaluate_and_export(q_network, config, options, state, session, bag_transitions)
+                # --- learn: the iterations owed, target copies, evaluations, checkpoints -------
+                while state.iterations < owed:
+                    state.last_loss = td_update(
+                        q_network, target_network, optimizer, replay, config, rng
+                    )
+                    state.iterations += 1
+                    scalars.training(state.samples, state.iterations, state.last_loss, epsilon)
+                    # CleanRL copies the target on global steps; here on training iterations,
+                    # as in the paper (docs/model.md, Q-network).
+                    if state.iterations % config.target_network_frequency == 0:
+                        target_network.load_state_dict(q_network.state_dict())
+                    if config.eval_every and state.iterations % config.eval_every == 0:
+                        report_status(report, state, config, "evaluating")
+                        evaluate_and_export(
+                            q_network, config, options, state, session, bag_transitions
+                        )
+                        scalars.evaluation(state.curve[-1])
+                    if config.checkpoint_every and state.iterations % config.checkpoint_every == 0:
+                        state.wall_time_s = session.wall_time_s()
+                        save_checkpoint(
+                            run_dir,
+                            config,
+                            state,
+                            q_network,
+                            target_network,
+                            optimizer,
+                            replay,
+                            rng,
+                        )
+                if episodes is not None or state.iterations % 10 == 0:  # offline: every 10th pass
+                    report_status(report, state, config, phase, epsilon)
+        except KeyboardInterrupt:
+            # Ctrl-C or SIGTERM: keep what was learnt, `--resume` continues from here.
+            state.wall_time_s = session.wall_time_s()
+            save_checkpoint(
+                run_dir, config, state, q_network, target_network, optimizer, replay, rng
+            )
+            raise
+        samples_per_s, iterations_per_s = session.close(state)
+
+        # --- final evaluation, checkpoint, export -------------------------------------------------
+        if not state.curve or state.curve[-1]["iteration"] != state.iterations:
+            report_status(report, state, config, "evaluating")
+            evaluate_and_export(q_network, config, options, state, session, bag_transitions)
+            scalars.evaluation(state.curve[-1])
     state.wall_time_s = session.wall_time_s()
     save_checkpoint(run_dir, config, state, q_network, target_network, optimizer, replay, rng)
     card = policy_card(config, state, options, bag_transitions)
