@@ -106,6 +106,7 @@ def resolve_policy(policy: str) -> str:
     from wildfire_agent.policies import TorchScriptPolicy
     from wildfire_agent.policy_names import (
         BUILTIN_POLICIES,
+        EVAL_ONLY_POLICIES,
         EXPECTED_POLICIES,
         SHIPPED_POLICIES,
         is_policy_file,
@@ -114,6 +115,11 @@ def resolve_policy(policy: str) -> str:
 
     if policy in BUILTIN_POLICIES:
         return policy
+    if policy in EVAL_ONLY_POLICIES:
+        raise UserError(
+            f"--policy {policy!r}: expected {EXPECTED_POLICIES} ({policy} reads the fire's "
+            "future: `wildfire eval` and `wildfire report` only)"
+        )
     if policy not in SHIPPED_POLICIES and not is_policy_file(policy):
         raise UserError(f"--policy {policy!r}: expected {EXPECTED_POLICIES}")
     path = resolve_policy_path(policy).resolve()

@@ -40,7 +40,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from wildfire_agent.policy_names import BUILTIN_POLICIES, PLANNER_POLICIES, resolve_policy_path
+from wildfire_agent.policy_names import (
+    BUILTIN_POLICIES,
+    EVAL_ONLY_POLICIES,
+    ORACLE_POLICY,
+    PLANNER_POLICIES,
+    resolve_policy_path,
+)
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import EvaluationSummary, evaluate
@@ -98,7 +104,7 @@ def make_tasks(jobs: Sequence[EvalJob], parts: int) -> list[EvalTask]:
     tasks = []
     for index, job in enumerate(jobs):
         if job.policy not in files:
-            builtin = job.policy in BUILTIN_POLICIES
+            builtin = job.policy in BUILTIN_POLICIES or job.policy in EVAL_ONLY_POLICIES
             files[job.policy] = None if builtin else resolve_policy_path(job.policy).read_bytes()
         for i, seeds in enumerate(split_seeds(job.seeds, parts)):
             tasks.append(
@@ -118,6 +124,8 @@ def make_tasks(jobs: Sequence[EvalJob], parts: int) -> list[EvalTask]:
 def task_cost(task: EvalTask) -> float:
     """Rough relative cost of a task, to start the longest first (measured ratios here)."""
     per_aircraft = 10.0 if task.policy in PLANNER_POLICIES else 0.1
+    if task.policy == ORACLE_POLICY:
+        per_aircraft = 100.0
     if task.policy_file is not None:
         per_aircraft = 1.0
     return per_aircraft * task.config.n_aircraft * len(task.seeds)

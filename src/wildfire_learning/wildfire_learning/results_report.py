@@ -37,6 +37,7 @@ POLICY_LABELS = {
     "rh": "receding horizon",
     "rh-paper": "receding horizon (paper)",
     "random": "random",
+    "oracle": "oracle (clairvoyant bound)",
 }
 """Column titles of the built-in policies (a .pt file is titled by its name)."""
 BASELINE = "rh"

@@ -21,12 +21,14 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.pairwise import other_indices
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy, greedy_actions_and_values
 from wildfire_agent.policy_names import (
+    ORACLE_POLICY,
     Policy,
     PolicyFactory,
     make_policy,
 )
 from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
 from wildfire_learning.env import WildfireVecEnv
+from wildfire_learning.oracle import OracleVecPolicy
 
 
 class VecPolicy(Protocol):
@@ -168,7 +170,11 @@ def make_vec_policy(
     device: str | torch.device = "cpu",
 ) -> VecPolicy:
     """VecPolicy for any policy name (``wildfire_agent.policy_names.make_policy``);
-    ``rh_config`` sets T, tau and restarts of the planners, ``device`` where a Q-network runs."""
+    ``rh_config`` sets T, tau and restarts of the planners, ``device`` where a Q-network runs.
+    ``oracle``, the clairvoyant bound (``wildfire_learning.oracle``), is evaluation's own: the
+    agent's factory does not know it."""
+    if policy == ORACLE_POLICY:
+        return OracleVecPolicy()
     factory = make_policy(policy, rh_config, device)
     if factory.network is not None:
         return QNetworkVecPolicy(factory.network)
