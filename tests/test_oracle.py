@@ -18,6 +18,7 @@ from wildfire_agent.policy_names import make_policy
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
 from wildfire_learning.oracle import (
+    INCUMBENT_POLICIES,
     NEVER,
     OracleConfig,
     OracleVecPolicy,
@@ -140,3 +141,25 @@ def test_run_refuses_the_oracle_in_one_line():
     lines = result.stderr.strip().splitlines()
     assert result.returncode == 2, result.stderr
     assert len(lines) == 1 and "--policy 'oracle': expected" in lines[0], result.stderr
+
+
+def test_oracle_with_incumbents_scores_at_least_each_incumbent():
+    config = short_config(duration_s=20.0)
+    seed = SEED + 2
+    oracle = make_vec_policy("oracle")
+    assert isinstance(oracle, OracleVecPolicy)
+    assert oracle.config.incumbents == INCUMBENT_POLICIES == ("rh", "rh-paper", "obs", "belief")
+    flown = evaluate(oracle, config, [seed], "oracle").episodes[0]
+    found = oracle.candidates[seed]
+    assert flown.score == oracle.plans[seed].score == found["refined"]
+    assert found["refined"] >= max(found.values())
+    for name in INCUMBENT_POLICIES:
+        incumbent = evaluate(make_vec_policy(name), config, [seed], name).episodes[0]
+        assert flown.score >= incumbent.score, (name, flown.score, incumbent.score)
+        if name in ("rh", "rh-paper"):  # no torch: the private flight is the very same
+            assert found[name] == incumbent.score
+    alone = OracleVecPolicy(OracleConfig(horizon=40, incumbents=()))
+    alone.plan(seed, config)
+    assert set(alone.candidates[seed]) == {"search", "refined"}
+    with pytest.raises(ValueError, match="no policy factory"):
+        OracleVecPolicy(OracleConfig(incumbents=("rh",)))

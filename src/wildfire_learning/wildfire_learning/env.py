@@ -37,7 +37,7 @@ Decision order (one ``step``)
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
@@ -318,10 +318,25 @@ class WildfireVecEnv:
         return {"image": images, "state": self.pair_states()}
 
 
+class VecPolicy(Protocol):
+    """A vector policy: chooses the actions of every aircraft of every episode of a
+    :class:`WildfireVecEnv` (the implementations are in ``wildfire_learning.vec_policies``)."""
+
+    observation: str
+    """What the environment must render for it: ``obs``, ``belief`` or ``none``."""
+
+    def reset(self, env: WildfireVecEnv) -> None:
+        """Called after ``env.reset``: (re)seed per-aircraft randomness and plans."""
+
+    def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
+        """Actions (E, N) int64."""
+
+
 __all__ = [
     "EnvConfig",
     "Scenario",
     "StepResult",
+    "VecPolicy",
     "WildfireVecEnv",
     "draw_scenario",
 ]

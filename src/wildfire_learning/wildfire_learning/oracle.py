@@ -23,50 +23,37 @@ flight it commits is flown and scored exactly. Flights use the project's dynamic
 for float (:func:`fly`, tested against ``wildfire_agent.dynamics.step``), so the plan the
 environment flies scores exactly what :func:`plan_episode` predicts.
 
+The plan flown (:class:`OracleVecPolicy`) is the best team flight found: the search's own,
+or an incumbent's, the flight of a shipped policy on the same episode (:func:`flight_of`)
+if one scores more, then refined with the known future (:func:`refine`: whole-episode
+iterated best response, each aircraft re-planned in receding horizon against the others'
+whole flights, kept only if the team scores more).
+
 It is a bound to measure against, not a deployable controller: it reads the future. It
 runs in ``wildfire eval`` and ``wildfire report`` only; an agent node refuses the name.
 
-Every compiled function that calls another lives in this one file: numba's disk cache
-(``cache=True``) checks only the source file of the function it compiled.
+The compiled kernels (flight, visit test, coordinate descent) are in
+:mod:`wildfire_learning.oracle_kernels`.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import numba
 import numpy as np
 
-from wildfire_agent.dynamics import (
-    BANK_STEP_RAD,
-    DECISION_PERIOD_S,
-    MAX_BANK_STEPS,
-    SPEED_MPS,
-    AircraftState,
-    turn_rate,
-)
+from wildfire_agent.dynamics import MAX_BANK_STEPS, AircraftState
 from wildfire_agent.policy_names import EVAL_ONLY_POLICIES, ORACLE_POLICY
-from wildfire_belief.visits import VISIT_RADIUS_M, WINDOW_HALF
-from wildfire_learning.env import EnvConfig, WildfireVecEnv, draw_scenario
+from wildfire_learning.env import EnvConfig, VecPolicy, WildfireVecEnv, draw_scenario
+from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES, flight_of
+from wildfire_learning.oracle_kernels import NEVER, RATES, cover, fly_path, search
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, FireEpisode
-from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
+from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.seeding import Stream, generator
-
-NEVER = np.iinfo(np.int64).max // 4
-"""A fire step or decision that never comes."""
-
-kernel = numba.njit(cache=True, nogil=True, error_model="numpy")
-inlined = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-
-_RADIUS2 = VISIT_RADIUS_M**2
-_LEVELS = 2 * MAX_BANK_STEPS + 1
-_RATES = np.ascontiguousarray(
-    turn_rate(np.arange(-MAX_BANK_STEPS, MAX_BANK_STEPS + 1) * BANK_STEP_RAD), np.float64
-)
-"""Turn rate per bank level (row ``bank_steps + 10``), from numpy's tan as ``dynamics``."""
 
 
 @dataclass(frozen=True)
@@ -90,6 +77,17 @@ class OracleConfig:
     plan's start (1: every new cell alike; below 1 favours the cells about to burn out)."""
     urgent_window: int = 400
     """See ``late_weight``."""
+    incumbents: tuple[str, ...] = INCUMBENT_POLICIES
+    """Policies whose flight of the same episode is an incumbent (the best-scoring one, or
+    the search's own plan if better, is refined); ``()`` measures the search alone."""
+    refine_horizons: tuple[int, ...] = (20, 30, 50)
+    """The T of the receding horizons that re-plan one aircraft against the others' whole
+    flights, tried in turn."""
+    refine_rounds: int = 10
+    """Passes over the moves (every aircraft at every ``refine_horizons``) at most."""
+    time_budget_s: float = 50.0
+    """No further best response starts past this much planning time of an episode (only
+    then may two runs differ)."""
 
 
 class KnownFuture(NamedTuple):
@@ -146,253 +144,6 @@ def known_future(seed: int, config: EnvConfig) -> KnownFuture:
     return KnownFuture(int(seed), scenario.start, episode.decisions, start, end, sums)
 
 
-# ----------------------------------------------------------------------------- kernels
-@inlined
-def _fly_one(
-    x: float, y: float, heading: float, level: int, action: int, rates: np.ndarray
-) -> tuple[float, float, float, int]:
-    """``dynamics.step`` of one aircraft, float for float: bank action, then 0.1 s of arc."""
-    proposed = level + (1 if action == 1 else -1)
-    if abs(proposed) <= MAX_BANK_STEPS:
-        level = proposed
-    turn = rates[level + MAX_BANK_STEPS]
-    new_heading = heading + turn * DECISION_PERIOD_S
-    if turn != 0.0:
-        radius = SPEED_MPS / turn
-        x = x + radius * (math.sin(new_heading) - math.sin(heading))
-        y = y + radius * (math.cos(heading) - math.cos(new_heading))
-    else:
-        x = x + SPEED_MPS * DECISION_PERIOD_S * math.cos(heading)
-        y = y + SPEED_MPS * DECISION_PERIOD_S * math.sin(heading)
-    # ``wrap_angle``: Python's float modulo, as numpy's (the remainder takes the divisor's sign).
-    heading = np.pi - (np.pi - new_heading) % (2.0 * np.pi)
-    return x, y, heading, level
-
-
-@kernel
-def _fly(
-    x: float, y: float, heading: float, level: int, actions: np.ndarray, rates: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """States (x, y, heading, level) after each action of ``actions``."""
-    steps = actions.size
-    xs, ys, hs = np.empty(steps), np.empty(steps), np.empty(steps)
-    levels = np.empty(steps, np.int64)
-    for t in range(steps):
-        x, y, heading, level = _fly_one(x, y, heading, level, actions[t], rates)
-        xs[t], ys[t], hs[t], levels[t] = x, y, heading, level
-    return xs, ys, hs, levels
-
-
-@inlined
-def _window_has_open(sums: np.ndarray, step: int, row: int, col: int) -> bool:
-    """Whether the visit window around cell (row, col) holds a scorable burning cell."""
-    r0 = min(max(row - WINDOW_HALF, 0), GRID_SIZE)
-    r1 = min(max(row + WINDOW_HALF + 1, 0), GRID_SIZE)
-    c0 = min(max(col - WINDOW_HALF, 0), GRID_SIZE)
-    c1 = min(max(col + WINDOW_HALF + 1, 0), GRID_SIZE)
-    if r0 >= r1 or c0 >= c1:
-        return False
-    total = sums[step, r1, c1] - sums[step, r0, c1] - sums[step, r1, c0] + sums[step, r0, c0]
-    return total > 0
-
-
-@inlined
-def _claim(
-    x: float,
-    y: float,
-    step: int,
-    start: np.ndarray,
-    end: np.ndarray,
-    first: np.ndarray,
-    open_after: int,
-    mark: np.ndarray,
-    stamp: int,
-    write_first: int,
-    weight: np.ndarray,
-) -> float:
-    """Visit the cells around (x, y) at fire step ``step`` (``visits.visit_windows``'s test,
-    operation for operation): count the burning cells whose ``first`` is at least
-    ``open_after`` and whose ``mark`` is not ``stamp``, and mark them (with ``stamp``, and
-    ``first = write_first`` when ``write_first`` >= 0); returns their summed ``weight``."""
-    row = math.floor(y / CELL_SIZE_M)
-    col = math.floor(x / CELL_SIZE_M)
-    count = 0.0
-    for i in range(-WINDOW_HALF, WINDOW_HALF + 1):
-        r = row + i
-        if r < 0 or r >= GRID_SIZE:
-            continue
-        dy = (r + 0.5) * CELL_SIZE_M - y
-        dy2 = dy * dy
-        for j in range(-WINDOW_HALF, WINDOW_HALF + 1):
-            c = col + j
-            if c < 0 or c >= GRID_SIZE:
-                continue
-            dx = (c + 0.5) * CELL_SIZE_M - x
-            if dy2 + dx * dx <= _RADIUS2:
-                cell = r * GRID_SIZE + c
-                if (
-                    start[cell] <= step < end[cell]
-                    and first[cell] >= open_after
-                    and mark[cell] != stamp
-                ):
-                    mark[cell] = stamp
-                    if write_first >= 0:
-                        first[cell] = write_first
-                    count += weight[cell]
-    return count
-
-
-@kernel
-def _cover(
-    xs: np.ndarray,
-    ys: np.ndarray,
-    first_decision: int,
-    start: np.ndarray,
-    end: np.ndarray,
-    covered: np.ndarray,
-) -> int:
-    """Mark ``covered`` (0/1 per cell) the cells visited while burning by a flight whose
-    point ``u`` is at decision ``first_decision + u``; returns the cells newly covered."""
-    mark = np.zeros(covered.size, np.int64)
-    first = np.zeros(covered.size, np.int64)
-    for cell in range(covered.size):
-        mark[cell] = 1 if covered[cell] else 0
-    ones = np.ones(covered.size)
-    count = 0
-    for u in range(xs.size):
-        step = (first_decision + u) // DECISIONS_PER_FIRE_STEP
-        count += int(_claim(xs[u], ys[u], step, start, end, first, 0, mark, 1, -1, ones))
-    for cell in range(covered.size):
-        covered[cell] = mark[cell] == 1
-    return count
-
-
-@kernel
-def _refresh(
-    t0: int,
-    xs: np.ndarray,
-    ys: np.ndarray,
-    decision0: int,
-    sample_every: int,
-    start: np.ndarray,
-    end: np.ndarray,
-    sums: np.ndarray,
-    first: np.ndarray,
-    mark: np.ndarray,
-    stamp: int,
-    gain: np.ndarray,
-    weight: np.ndarray,
-) -> None:
-    """Credit the plan's points ``t0..`` with the open cells (``first`` = NEVER) they first
-    cover, writing ``first`` and ``gain`` (points before ``t0`` keep theirs)."""
-    for u in range(t0, xs.size):
-        gain[u] = 0
-        decision = decision0 + u
-        if decision % sample_every != 0:
-            continue
-        step = decision // DECISIONS_PER_FIRE_STEP
-        if not _window_has_open(
-            sums, step, math.floor(ys[u] / CELL_SIZE_M), math.floor(xs[u] / CELL_SIZE_M)
-        ):
-            continue
-        gain[u] = _claim(xs[u], ys[u], step, start, end, first, NEVER, mark, stamp, u, weight)
-
-
-@kernel
-def _search(
-    x0: float,
-    y0: float,
-    h0: float,
-    level0: int,
-    decision0: int,
-    restarts: np.ndarray,
-    base_first: np.ndarray,
-    weight: np.ndarray,
-    start: np.ndarray,
-    end: np.ndarray,
-    sums: np.ndarray,
-    rates: np.ndarray,
-    sample_every: int,
-    max_passes: int,
-) -> tuple[np.ndarray, float]:
-    """Coordinate descent from each restart (R, T): the best sequence found and its value
-    (the summed ``weight`` of the cells newly covered, scored every ``sample_every``-th
-    decision). Point ``u`` of a sequence is decision ``decision0 + u``; ``base_first`` is -1
-    for cells already covered (by the team or the others' plans) and ``NEVER`` for open ones."""
-    count, horizon = restarts.shape
-    cells = base_first.size
-    best = restarts[0].copy()
-    best_value = -1.0
-    mark = np.zeros(cells, np.int64)
-    stamp = 0
-    gain = np.zeros(horizon)
-    prefix = np.zeros(horizon + 1)
-    for r in range(count):
-        sequence = restarts[r].copy()
-        xs, ys, hs, levels = _fly(x0, y0, h0, level0, sequence, rates)
-        first = base_first.copy()
-        stamp += 1
-        _refresh(
-            0, xs, ys, decision0, sample_every, start, end, sums, first, mark, stamp, gain, weight
-        )
-        for u in range(horizon):
-            prefix[u + 1] = prefix[u] + gain[u]
-        value = prefix[horizon]
-        for _ in range(max_passes):
-            improved = False
-            for t in range(horizon):
-                # The flight with action t flipped: as the plan before t, new from t on.
-                if t == 0:
-                    x, y, heading, level = x0, y0, h0, level0
-                else:
-                    x, y, heading, level = xs[t - 1], ys[t - 1], hs[t - 1], levels[t - 1]
-                stamp += 1
-                total = prefix[t]
-                for u in range(t, horizon):
-                    action = sequence[u] ^ 1 if u == t else sequence[u]
-                    x, y, heading, level = _fly_one(x, y, heading, level, action, rates)
-                    decision = decision0 + u
-                    if decision % sample_every != 0:
-                        continue
-                    step = decision // DECISIONS_PER_FIRE_STEP
-                    if not _window_has_open(
-                        sums, step, math.floor(y / CELL_SIZE_M), math.floor(x / CELL_SIZE_M)
-                    ):
-                        continue
-                    total += _claim(x, y, step, start, end, first, t, mark, stamp, -1, weight)
-                if total > value + 1e-9:
-                    # Take the flip: fly it, forget what the plan covered from t on, re-credit.
-                    sequence[t] ^= 1
-                    fx, fy, fh, fl = _fly(
-                        xs[t - 1] if t > 0 else x0,
-                        ys[t - 1] if t > 0 else y0,
-                        hs[t - 1] if t > 0 else h0,
-                        levels[t - 1] if t > 0 else level0,
-                        sequence[t:],
-                        rates,
-                    )
-                    xs[t:], ys[t:], hs[t:], levels[t:] = fx, fy, fh, fl
-                    for cell in range(cells):
-                        if t <= first[cell] < NEVER:
-                            first[cell] = NEVER
-                    stamp += 1
-                    _refresh(
-                        t, xs, ys, decision0, sample_every, start, end, sums, first, mark,
-                        stamp, gain, weight,
-                    )  # fmt: skip
-                    for u in range(t, horizon):
-                        prefix[u + 1] = prefix[u] + gain[u]
-                    value = prefix[horizon]
-                    improved = True
-            if not improved:
-                break
-        if value > best_value:
-            best_value = float(value)
-            best[:] = sequence
-    return best, best_value
-
-
-# ----------------------------------------------------------------------------- python side
 def fly(state: AircraftState, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Positions (x, y), each (N, L), of aircraft ``state`` (N,) flying ``actions`` (N, L):
     the floats ``dynamics.step`` gives, step after step (tested)."""
@@ -400,13 +151,13 @@ def fly(state: AircraftState, actions: np.ndarray) -> tuple[np.ndarray, np.ndarr
     xs = np.empty(actions.shape)
     ys = np.empty(actions.shape)
     for k in range(actions.shape[0]):
-        x, y, _, _ = _fly(
+        x, y, _, _ = fly_path(
             float(state.x_m[k]),
             float(state.y_m[k]),
             float(state.heading_rad[k]),
             int(state.bank_steps[k]),
             actions[k],
-            _RATES,
+            RATES,
         )
         xs[k], ys[k] = x, y
     return xs, ys
@@ -417,7 +168,7 @@ def coverage_score(future: KnownFuture, xs: np.ndarray, ys: np.ndarray) -> int:
     covered = np.zeros(future.start_step.size, np.bool_)
     total = 0
     for k in range(xs.shape[0]):
-        total += _cover(
+        total += cover(
             np.ascontiguousarray(xs[k], np.float64),
             np.ascontiguousarray(ys[k], np.float64),
             1,
@@ -480,39 +231,38 @@ class OraclePlan(NamedTuple):
     y_m: np.ndarray
 
 
-def plan_episode(future: KnownFuture, config: OracleConfig | None = None) -> OraclePlan:
-    """The oracle's flight of the episode ``future`` (see the module docstring)."""
-    config = config or OracleConfig()
+def _receding_horizon(
+    future: KnownFuture,
+    config: OracleConfig,
+    plan: np.ndarray,
+    free: list[int],
+    covered: np.ndarray,
+    horizon: int,
+    keep_tail: bool = False,
+) -> np.ndarray:
+    """Re-plan aircraft ``free`` of ``plan`` (N, L + horizon + tau; their rows start as the
+    plans the search shifts) in receding horizon, the cells of ``covered`` (the fixed
+    aircraft's whole flights) counted as covered; returns the (N, L) actions flown. Past a
+    plan's horizon the bank it ends on is held, or with ``keep_tail`` the actions kept."""
     start = future.start
-    n = start.x_m.shape[0]
     length = future.decisions
-    horizon, tau = config.horizon, config.replan_every
-    cells = future.start_step.size
-    rngs = [generator(future.seed, Stream.AIRCRAFT, k) for k in range(n)]
-    # Plans run past the flight by a horizon so that shifted plans always have actions.
-    plan = np.zeros((n, length + horizon + tau), np.int64)
-    for k in range(n):
-        plan[k] = _hold(int(start.bank_steps[k]), plan.shape[1], 0)
-    state = [
-        (float(start.x_m[k]), float(start.y_m[k]), float(start.heading_rad[k]),
-         int(start.bank_steps[k]))
-        for k in range(n)
-    ]  # fmt: skip
-    flown_x = np.empty((n, length))
-    flown_y = np.empty((n, length))
-    covered = np.zeros(cells, np.bool_)
-    score = 0
+    tau = config.replan_every
+    rngs = {k: generator(future.seed, Stream.AIRCRAFT, k) for k in free}
+    state = {
+        k: (float(start.x_m[k]), float(start.y_m[k]), float(start.heading_rad[k]),
+            int(start.bank_steps[k]))
+        for k in free
+    }  # fmt: skip
     ss, es, sums = future.start_step, future.end_step, future.open_sums
     for d0 in range(0, length, tau):
         steps = min(horizon, length - d0)
         for _ in range(config.rounds):
-            for k in range(n):
-                others = np.zeros(cells, np.bool_)
-                others[:] = covered
-                for j in range(n):
+            for k in free:
+                others = covered.copy()
+                for j in free:
                     if j != k:
-                        x, y, _, _ = _fly(*state[j], plan[j, d0 : d0 + steps], _RATES)
-                        _cover(x, y, d0 + 1, ss, es, others)
+                        x, y, _, _ = fly_path(*state[j], plan[j, d0 : d0 + steps], RATES)
+                        cover(x, y, d0 + 1, ss, es, others)
                 base = np.where(others, -1, NEVER).astype(np.int64)
                 late = es * DECISIONS_PER_FIRE_STEP > d0 + config.urgent_window
                 weight = np.where(late, config.late_weight, 1.0)
@@ -526,45 +276,159 @@ def plan_episode(future: KnownFuture, config: OracleConfig | None = None) -> Ora
                 restarts += [
                     _random_profile(rngs[k], level, steps) for _ in range(config.random_restarts)
                 ]
-                best, _ = _search(
-                    *state[k], d0 + 1, np.stack(restarts), base, weight, ss, es, sums, _RATES,
+                best, _ = search(
+                    *state[k], d0 + 1, np.stack(restarts), base, weight, ss, es, sums, RATES,
                     config.sample_every, config.max_passes,
                 )  # fmt: skip
                 plan[k, d0 : d0 + steps] = best
+                if keep_tail:
+                    continue
                 # Past the horizon: hold the bank the plan ends on.
                 tail = min(plan.shape[1] - (d0 + steps), horizon + tau)
                 end_level = _level_after(level, best)
                 plan[k, d0 + steps : d0 + steps + tail] = _hold(end_level, tail, end_level)
         # Commit the next tau decisions, flown and scored exactly.
         commit = min(tau, length - d0)
-        for k in range(n):
-            xs, ys, hs, levels = _fly(*state[k], plan[k, d0 : d0 + commit], _RATES)
-            flown_x[k, d0 : d0 + commit], flown_y[k, d0 : d0 + commit] = xs, ys
-            score += _cover(xs, ys, d0 + 1, ss, es, covered)
+        for k in free:
+            xs, ys, hs, levels = fly_path(*state[k], plan[k, d0 : d0 + commit], RATES)
+            cover(xs, ys, d0 + 1, ss, es, covered)
             state[k] = (float(xs[-1]), float(ys[-1]), float(hs[-1]), int(levels[-1]))
-    return OraclePlan(plan[:, :length].copy(), score, flown_x, flown_y)
+    return plan[:, :length].copy()
+
+
+def _as_plan(future: KnownFuture, actions: np.ndarray) -> OraclePlan:
+    """The team flight ``actions`` (N, L), flown and scored exactly."""
+    actions = np.ascontiguousarray(actions, np.int64)
+    xs, ys = fly(future.start, actions)
+    return OraclePlan(actions, coverage_score(future, xs, ys), xs, ys)
+
+
+def _padded(future: KnownFuture, actions: np.ndarray, pad: int) -> np.ndarray:
+    """``actions`` (N, L) extended by ``pad`` decisions holding the bank each ends on."""
+    n, length = actions.shape
+    plan = np.zeros((n, length + pad), np.int64)
+    for k in range(n):
+        level = int(future.start.bank_steps[k])
+        plan[k, :length] = actions[k]
+        end = _level_after(level, actions[k])
+        plan[k, length:] = _hold(end, pad, end)
+    return plan
+
+
+def plan_episode(future: KnownFuture, config: OracleConfig | None = None) -> OraclePlan:
+    """The search's own flight of the episode ``future`` (see the module docstring)."""
+    config = config or OracleConfig()
+    n = future.start.x_m.shape[0]
+    pad = config.horizon + config.replan_every
+    plan = np.zeros((n, future.decisions + pad), np.int64)
+    for k in range(n):
+        plan[k] = _hold(int(future.start.bank_steps[k]), plan.shape[1], 0)
+    covered = np.zeros(future.start_step.size, np.bool_)
+    actions = _receding_horizon(future, config, plan, list(range(n)), covered, config.horizon)
+    return _as_plan(future, actions)
+
+
+def best_response(
+    future: KnownFuture, team: OraclePlan, k: int, horizon: int, config: OracleConfig
+) -> OraclePlan:
+    """``team`` with aircraft ``k``'s whole flight re-planned in receding horizon (T =
+    ``horizon``, its own flight the plan it starts from) against the others' whole flights."""
+    n = future.start.x_m.shape[0]
+    covered = np.zeros(future.start_step.size, np.bool_)
+    for j in range(n):
+        if j != k:
+            cover(team.x_m[j], team.y_m[j], 1, future.start_step, future.end_step, covered)
+    plan = _padded(future, team.actions, horizon + config.replan_every)
+    actions = _receding_horizon(future, config, plan, [k], covered, horizon, keep_tail=True)
+    others = np.arange(n) != k
+    actions[others] = team.actions[others]
+    return _as_plan(future, actions)
+
+
+def refine(
+    future: KnownFuture,
+    incumbent: OraclePlan,
+    config: OracleConfig | None = None,
+    deadline: float = math.inf,
+) -> OraclePlan:
+    """Whole-episode iterated best response from ``incumbent``: aircraft by aircraft, for
+    each horizon of ``refine_horizons`` in turn, re-plan one aircraft's whole flight against
+    the others' (:func:`best_response`) and keep the new team flight only if it scores more.
+    Stops when no move gains any more, after ``refine_rounds`` passes over the moves, or at
+    ``deadline`` (``time.perf_counter``) between two moves."""
+    config = config or OracleConfig()
+    n = future.start.x_m.shape[0]
+    moves = [(horizon, k) for horizon in config.refine_horizons for k in range(n)]
+    best = incumbent
+    stale = 0
+    for move in range(config.refine_rounds * len(moves)):
+        if stale >= len(moves) or time.perf_counter() >= deadline:
+            break
+        horizon, k = moves[move % len(moves)]
+        candidate = best_response(future, best, k, horizon, config)
+        if candidate.score > best.score:
+            best, stale = candidate, 0
+        else:
+            stale += 1
+    return best
 
 
 class OracleVecPolicy:
     """The oracle flying every aircraft of every episode of a vector environment: each
-    episode is planned whole when it starts (its future is known), then replayed."""
+    episode is planned whole when it starts (its future is known), then replayed.
+
+    The plan is the best of the search's own flight and the flights of the incumbent
+    policies (``config.incumbents``, built by ``incumbent``: ``vec_policies.make_vec_policy``),
+    refined by whole-episode best response (:func:`refine`)."""
 
     observation = "none"
 
-    def __init__(self, config: OracleConfig | None = None) -> None:
+    def __init__(
+        self,
+        config: OracleConfig | None = None,
+        incumbent: Callable[[str], VecPolicy] | None = None,
+    ) -> None:
         self.config = config or OracleConfig()
+        if self.config.incumbents and incumbent is None:
+            raise ValueError("OracleVecPolicy: incumbents named but no policy factory given")
+        self.incumbent = incumbent
+        self._incumbent_policies: dict[str, VecPolicy] = {}
         self.plans: dict[int, OraclePlan] = {}
         self.plan_seconds: dict[int, float] = {}
         """Wall time of each episode's planning (in ``reset``, which ``evaluate`` does not
         time), by seed."""
+        self.candidates: dict[int, dict[str, int]] = {}
+        """Per seed, the score of each flight considered: the search's own (``search``), each
+        incumbent's, and the refined plan (``refined``)."""
         self._planned_seed: np.ndarray = np.zeros(0, np.int64)
+
+    def plan(self, seed: int, config: EnvConfig) -> OraclePlan:
+        """The oracle's flight of episode ``seed`` (see the class docstring)."""
+        tic = time.perf_counter()
+        future = known_future(seed, config)
+        found = {"search": plan_episode(future, self.config)}
+        for name in self.config.incumbents:
+            if name not in self._incumbent_policies:
+                assert self.incumbent is not None
+                self._incumbent_policies[name] = self.incumbent(name)
+            found[name] = _as_plan(future, flight_of(self._incumbent_policies[name], config, seed))
+        scores = {name: plan.score for name, plan in found.items()}
+        # Refine every flight found, the best first (the budget may not reach the last).
+        deadline = tic + self.config.time_budget_s
+        best = max(found.values(), key=lambda plan: plan.score)
+        for plan in sorted(found.values(), key=lambda plan: -plan.score):
+            refined = refine(future, plan, self.config, deadline)
+            if refined.score > best.score:
+                best = refined
+        scores["refined"] = best.score
+        self.candidates[seed] = scores
+        self.plan_seconds[seed] = time.perf_counter() - tic
+        return best
 
     def _plan(self, env: WildfireVecEnv, e: int) -> None:
         seed = int(env.seeds[e])
         if seed not in self.plans:
-            tic = time.perf_counter()
-            self.plans[seed] = plan_episode(known_future(seed, env.config), self.config)
-            self.plan_seconds[seed] = time.perf_counter() - tic
+            self.plans[seed] = self.plan(seed, env.config)
         self._planned_seed[e] = seed
 
     def reset(self, env: WildfireVecEnv) -> None:
@@ -588,6 +452,7 @@ class OracleVecPolicy:
 
 __all__ = [
     "EVAL_ONLY_POLICIES",
+    "INCUMBENT_POLICIES",
     "NEVER",
     "ORACLE_POLICY",
     "KnownFuture",
@@ -595,7 +460,9 @@ __all__ = [
     "OraclePlan",
     "OracleVecPolicy",
     "coverage_score",
+    "flight_of",
     "fly",
     "known_future",
     "plan_episode",
+    "refine",
 ]

@@ -11,7 +11,6 @@ the same in a batch of 20 episodes, alone, or as its own agent node.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Protocol
 
 import numpy as np
 import torch
@@ -27,21 +26,8 @@ from wildfire_agent.policy_names import (
     make_policy,
 )
 from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
-from wildfire_learning.env import WildfireVecEnv
+from wildfire_learning.env import VecPolicy, WildfireVecEnv
 from wildfire_learning.oracle import OracleVecPolicy
-
-
-class VecPolicy(Protocol):
-    """Chooses the actions of every aircraft of every environment."""
-
-    observation: str
-    """What the environment must render for it: ``obs``, ``belief`` or ``none``."""
-
-    def reset(self, env: WildfireVecEnv) -> None:
-        """Called after ``env.reset``: (re)seed per-aircraft randomness and plans."""
-
-    def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
-        """Actions (E, N) int64."""
 
 
 def flatten_aircraft(state: AircraftState) -> AircraftState:
@@ -174,7 +160,7 @@ def make_vec_policy(
     ``oracle``, the clairvoyant bound (``wildfire_learning.oracle``), is evaluation's own: the
     agent's factory does not know it."""
     if policy == ORACLE_POLICY:
-        return OracleVecPolicy()
+        return OracleVecPolicy(incumbent=lambda name: make_vec_policy(name, rh_config, device))
     factory = make_policy(policy, rh_config, device)
     if factory.network is not None:
         return QNetworkVecPolicy(factory.network)
@@ -188,7 +174,6 @@ __all__ = [
     "QNetworkVecPolicy",
     "RandomVecPolicy",
     "RecedingHorizonVecPolicy",
-    "VecPolicy",
     "build_for",
     "make_vec_policy",
 ]
