@@ -175,3 +175,16 @@ def test_curves_are_the_mean_and_spread_across_runs(tmp_path: Path) -> None:
     assert row["score_mean"] == pytest.approx(400) and row["score_sem"] == pytest.approx(100)
     assert row["reward_mean"] == pytest.approx(-0.3) and row["reward_sem"] == pytest.approx(0.1)
     assert (tmp_path / "out" / "learning_curves.png").stat().st_size > 0
+
+
+def test_report_gives_every_policy_as_a_fraction_of_the_oracle(tmp_path: Path) -> None:
+    out = tmp_path / "report"
+    summary = quick_report(out, "rh oracle", "circular:2")
+    cells = summary["cells"]["circular_2aircraft"]
+    assert cells["oracle"]["mean"] >= cells["rh"]["mean"]
+    assert cells["rh"]["oracle_fraction"] == pytest.approx(
+        cells["rh"]["mean"] / cells["oracle"]["mean"]
+    )
+    assert cells["oracle"]["oracle_fraction"] == 1.0
+    markdown = (out / "results.md").read_text()
+    assert f"{cells['rh']['oracle_fraction']:.0%} of oracle" in markdown

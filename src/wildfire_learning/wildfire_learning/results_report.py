@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from wildfire_agent.approaches import APPROACHES
+from wildfire_agent.policy_names import ORACLE_POLICY
 from wildfire_learning.errors import LearningError
 from wildfire_learning.summary_stats import standard_error
 from wildfire_sim.shapes import Shape
@@ -37,7 +38,7 @@ POLICY_LABELS = {
     "rh": "receding horizon",
     "rh-paper": "receding horizon (paper)",
     "random": "random",
-    "oracle": "oracle (clairvoyant bound)",
+    ORACLE_POLICY: "oracle (clairvoyant bound)",
 }
 """Column titles of the built-in policies (a .pt file is titled by its name)."""
 BASELINE = "rh"
@@ -159,6 +160,9 @@ class Cell:
     ratio_rh_paper: float | None = None
     """The same to ``rh-paper``."""
     ratio_rh_paper_sem: float | None = None
+    oracle_fraction: float | None = None
+    """Mean over the mean of the clairvoyant bound ``oracle`` on the same seeds (None
+    without it): how close to the best team flight found the policy comes."""
 
 
 def paired_ratio(
@@ -183,12 +187,14 @@ def table_cells(
             scores = np.array(result["scores"])
             ours = by_policy.get(BASELINE) if policy != BASELINE else None
             paper = by_policy.get(PAPER_BASELINE) if policy != PAPER_BASELINE else None
+            bound, _ = paired_ratio(scores, by_policy.get(ORACLE_POLICY))
             row[policy] = Cell(
                 float(result["score_mean"]),
                 float(result["score_sem"]),
                 float(result["ceiling_fraction"]),
                 *paired_ratio(scores, ours),
                 *paired_ratio(scores, paper),
+                bound,
             )
         cells[scenario] = row
     return cells
@@ -209,8 +215,9 @@ def results_markdown(
         protocol,
         "",
         "Mean +- standard error of the score; in brackets the ratio to our receding horizon",
-        "(`rh`) on the same seeds and the fraction of the score ceiling (the most any policy",
-        "could score on those fires).",
+        "(`rh`) on the same seeds, the fraction of the score ceiling (the most any policy",
+        "could score on those fires) and, where the clairvoyant bound `oracle` was flown, the",
+        "fraction of its score on the same seeds.",
         "",
         "| scenario | ceiling | " + " | ".join(titles) + " |",
         "|---" * (len(titles) + 2) + "|",
@@ -222,7 +229,10 @@ def results_markdown(
         for policy in policies:
             cell = cells[scenario.key][policy]
             ratio = f"{cell.ratio:.2f}x, " if cell.ratio is not None else ""
-            row.append(f"{cell.mean:.1f} +- {cell.sem:.1f} ({ratio}{cell.ceiling_fraction:.0%})")
+            bound = f", {cell.oracle_fraction:.0%} of oracle" if cell.oracle_fraction else ""
+            row.append(
+                f"{cell.mean:.1f} +- {cell.sem:.1f} ({ratio}{cell.ceiling_fraction:.0%}{bound})"
+            )
         lines.append("| " + " | ".join(row) + " |")
     lines += [
         "",
@@ -288,6 +298,10 @@ def plot_scores(
         ax.bar(x + offset, means, width, yerr=sems, capsize=2, label=policy_label(policy))
     ceilings = [next(iter(results[s.key].values()))["score_ceiling_mean"] for s in scenarios]
     ax.hlines(ceilings, x - 0.45, x + 0.45, colors="black", linestyles="--", label="ceiling")
+    if ORACLE_POLICY in policies:
+        # The bound's level across each group: every bar reads as a fraction of it.
+        bounds = [results[s.key][ORACLE_POLICY]["score_mean"] for s in scenarios]
+        ax.hlines(bounds, x - 0.45, x + 0.45, colors="dimgray", linestyles=":", label="oracle")
     ax.set_xticks(x, [s.title for s in scenarios], fontsize=8)
     ax.set_ylabel("Average Reward Accumulated")
     # Above the axes: inside, it would cover the tallest bars or a ceiling.
