@@ -18,8 +18,6 @@ from wildfire_agent.policy_names import make_policy
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
 from wildfire_learning.oracle import (
-    INCUMBENT_POLICIES,
-    NEVER,
     OracleConfig,
     OracleVecPolicy,
     coverage_score,
@@ -27,6 +25,8 @@ from wildfire_learning.oracle import (
     known_future,
     plan_episode,
 )
+from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES
+from wildfire_learning.oracle_kernels import NEVER
 from wildfire_learning.vec_policies import make_vec_policy
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
 from wildfire_sim.grid import GRID_SIZE

@@ -45,13 +45,15 @@ BUILTIN_POLICIES = (*PLANNER_POLICIES, "random")
 SHIPPED_POLICIES = APPROACHES
 """Names of the shipped Q-network files (one per approach)."""
 EXPECTED_POLICIES = "rh, rh-paper, random, obs, belief or a TorchScript .pt file"
+"""How an error message names what a policy may be."""
 ORACLE_POLICY = "oracle"
 """The clairvoyant bound (``wildfire_learning.oracle``): it reads the fire's future, so
 ``wildfire eval`` and ``wildfire report`` fly it and nothing else does (:func:`make_policy`,
 and so an agent node, refuses the name as unknown)."""
 EVAL_ONLY_POLICIES = (ORACLE_POLICY,)
 """Policies with no file that only evaluation flies."""
-"""How an error message names what a policy may be."""
+FILELESS_POLICIES = (*BUILTIN_POLICIES, *EVAL_ONLY_POLICIES)
+"""Policy names with no policy file (and so no model card) behind them."""
 MODELS_DIR = Path(__file__).resolve().parents[3] / "models"
 """Shipped policies (``obs_policy.pt``, ``belief_policy.pt``) in the repository."""
 
@@ -145,6 +147,7 @@ __all__ = [
     "BUILTIN_POLICIES",
     "EVAL_ONLY_POLICIES",
     "EXPECTED_POLICIES",
+    "FILELESS_POLICIES",
     "MODELS_DIR",
     "ORACLE_POLICY",
     "PLANNER_POLICIES",

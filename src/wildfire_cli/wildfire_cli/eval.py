@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from wildfire_agent.policy_names import BUILTIN_POLICIES, EVAL_ONLY_POLICIES, resolve_policy_path
+from wildfire_agent.policy_names import FILELESS_POLICIES, resolve_policy_path
 from wildfire_cli.common import (
     UserError,
     add_device_argument,
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     shape = Shape.parse(args.shape)
     device = resolve_device(args.device)
     vec_policy = make_vec_policy(args.policy, device=device)  # a bad name or file fails now
-    if args.card and (args.policy in BUILTIN_POLICIES or args.policy in EVAL_ONLY_POLICIES):
+    if args.card and args.policy in FILELESS_POLICIES:
         raise UserError(f"--card: policy {args.policy} has no model card (a Q-network has)")
     config = EnvConfig(shapes=(shape.value,), **scenario_settings(args)).validate()
     seeds = list(range(args.seed, args.seed + args.episodes))

@@ -11,7 +11,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from wildfire_agent.policy_names import BUILTIN_POLICIES, EVAL_ONLY_POLICIES, resolve_policy_path
+from wildfire_agent.policy_names import FILELESS_POLICIES, resolve_policy_path
 from wildfire_cli.common import (
     UserError,
     add_duration_argument,
@@ -152,7 +152,7 @@ def collect_results(
     for scenario in scenarios:
         config = replace(base, n_aircraft=scenario.aircraft, shapes=(scenario.shape,))
         for policy in policies:
-            builtin = policy in BUILTIN_POLICIES or policy in EVAL_ONLY_POLICIES
+            builtin = policy in FILELESS_POLICIES
             policy_file = None if builtin else resolve_policy_path(policy)
             identity = fingerprint(policy, policy_file, seeds, base.max_wind, args.duration)
             path = evaluation_path(args.out, policy, scenario)

@@ -201,7 +201,7 @@ def train(
     # Offline runs, and runs given ``iterations``, stop on iterations; the others on samples.
     by_iterations = options.offline or config.iterations > 0
     # TensorBoard scalars beside the CSV curve; closed (flushed) however the session ends.
-    with ScalarLog(run_dir, state.samples, state.iterations) as scalars:
+    with ScalarLog(run_dir) as scalars:
         try:
             while (
                 state.iterations < total_iterations
@@ -245,7 +245,7 @@ def train(
                         q_network, target_network, optimizer, replay, config, rng
                     )
                     state.iterations += 1
-                    scalars.training(state.samples, state.iterations, state.last_loss, epsilon)
+                    scalars.training(state, epsilon, session.training_rates(state))
                     # CleanRL copies the target on global steps; here on training iterations,
                     # as in the paper (docs/model.md, Q-network).
                     if state.iterations % config.target_network_frequency == 0:

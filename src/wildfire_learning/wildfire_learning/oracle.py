@@ -47,7 +47,6 @@ from typing import NamedTuple
 import numpy as np
 
 from wildfire_agent.dynamics import MAX_BANK_STEPS, AircraftState
-from wildfire_agent.policy_names import EVAL_ONLY_POLICIES, ORACLE_POLICY
 from wildfire_learning.env import EnvConfig, VecPolicy, WildfireVecEnv, draw_scenario
 from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES, flight_of
 from wildfire_learning.oracle_kernels import NEVER, RATES, cover, fly_path, search
@@ -179,6 +178,13 @@ def coverage_score(future: KnownFuture, xs: np.ndarray, ys: np.ndarray) -> int:
     return total
 
 
+def _next_level(level: int, action: int) -> int:
+    """``dynamics.apply_action`` of one aircraft's bank level, as a plain int (the planning
+    loops below call it per decision, where a numpy call each time would cost more)."""
+    proposed = level + (1 if action else -1)
+    return proposed if abs(proposed) <= MAX_BANK_STEPS else level
+
+
 def _hold(level: int, steps: int, target: int) -> np.ndarray:
     """Actions that bring the bank from ``level`` to ``target`` and hold it there (at the
     limit by pushing into it, elsewhere by alternating about it)."""
@@ -193,8 +199,7 @@ def _hold(level: int, steps: int, target: int) -> np.ndarray:
         else:
             action = 1 if t % 2 == 0 else 0
         actions[t] = action
-        proposed = level + (1 if action else -1)
-        level = proposed if abs(proposed) <= MAX_BANK_STEPS else level
+        level = _next_level(level, action)
     return actions
 
 
@@ -205,17 +210,15 @@ def _random_profile(rng: np.random.Generator, level: int, steps: int) -> np.ndar
         target = int(rng.integers(-MAX_BANK_STEPS, MAX_BANK_STEPS + 1))
         stretch = int(rng.integers(10, 41))
         part = _hold(level, stretch, target)
-        for a in part:
-            proposed = level + (1 if a else -1)
-            level = proposed if abs(proposed) <= MAX_BANK_STEPS else level
+        level = _level_after(level, part)
         actions = np.concatenate([actions, part])
     return actions[:steps]
 
 
 def _level_after(level: int, actions: np.ndarray) -> int:
-    for a in actions:
-        proposed = level + (1 if a else -1)
-        level = proposed if abs(proposed) <= MAX_BANK_STEPS else level
+    """The bank level after flying ``actions`` from ``level``."""
+    for action in actions.tolist():
+        level = _next_level(level, action)
     return level
 
 
@@ -400,7 +403,6 @@ class OracleVecPolicy:
         self.candidates: dict[int, dict[str, int]] = {}
         """Per seed, the score of each flight considered: the search's own (``search``), each
         incumbent's, and the refined plan (``refined``)."""
-        self._planned_seed: np.ndarray = np.zeros(0, np.int64)
 
     def plan(self, seed: int, config: EnvConfig) -> OraclePlan:
         """The oracle's flight of episode ``seed`` (see the class docstring)."""
@@ -425,25 +427,21 @@ class OracleVecPolicy:
         self.plan_seconds[seed] = time.perf_counter() - tic
         return best
 
-    def _plan(self, env: WildfireVecEnv, e: int) -> None:
+    def _plan_of(self, env: WildfireVecEnv, e: int) -> OraclePlan:
+        """The plan of environment ``e``'s episode, planned the first time its seed is seen."""
         seed = int(env.seeds[e])
         if seed not in self.plans:
             self.plans[seed] = self.plan(seed, env.config)
-        self._planned_seed[e] = seed
+        return self.plans[seed]
 
     def reset(self, env: WildfireVecEnv) -> None:
-        self._planned_seed = np.full(env.num_envs, -1, np.int64)
         for e in np.flatnonzero(~env.done).tolist():
-            self._plan(env, e)
+            self._plan_of(env, e)
 
     def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
         actions = np.zeros((env.num_envs, env.config.n_aircraft), np.int64)
         for e in np.flatnonzero(~env.done).tolist():
-            if self._planned_seed.size != env.num_envs or self._planned_seed[e] != env.seeds[e]:
-                if self._planned_seed.size != env.num_envs:
-                    self._planned_seed = np.full(env.num_envs, -1, np.int64)
-                self._plan(env, e)
-            plan = self.plans[int(env.seeds[e])]
+            plan = self._plan_of(env, e)
             decision = int(env.decisions[e])
             if decision < plan.actions.shape[1]:
                 actions[e] = plan.actions[:, decision]
@@ -451,16 +449,11 @@ class OracleVecPolicy:
 
 
 __all__ = [
-    "EVAL_ONLY_POLICIES",
-    "INCUMBENT_POLICIES",
-    "NEVER",
-    "ORACLE_POLICY",
     "KnownFuture",
     "OracleConfig",
     "OraclePlan",
     "OracleVecPolicy",
     "coverage_score",
-    "flight_of",
     "fly",
     "known_future",
     "plan_episode",

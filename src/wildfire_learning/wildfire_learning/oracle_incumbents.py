@@ -10,13 +10,11 @@ from dataclasses import replace
 import numpy as np
 import torch
 
-from wildfire_agent.policy_names import BUILTIN_POLICIES, ORACLE_POLICY, SHIPPED_POLICIES
+from wildfire_agent.policy_names import BUILTIN_POLICIES, SHIPPED_POLICIES
 from wildfire_learning.env import EnvConfig, VecPolicy, WildfireVecEnv
 
 INCUMBENT_POLICIES = tuple(
-    str(name)
-    for name in (*BUILTIN_POLICIES, *SHIPPED_POLICIES)
-    if name not in ("random", ORACLE_POLICY)
+    str(name) for name in (*BUILTIN_POLICIES, *SHIPPED_POLICIES) if name != "random"
 )
 """The shipped policies whose flights are the oracle's incumbents (``random`` never wins)."""
 

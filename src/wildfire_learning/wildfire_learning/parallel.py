@@ -41,8 +41,7 @@ from pathlib import Path
 from typing import Any
 
 from wildfire_agent.policy_names import (
-    BUILTIN_POLICIES,
-    EVAL_ONLY_POLICIES,
+    FILELESS_POLICIES,
     ORACLE_POLICY,
     PLANNER_POLICIES,
     resolve_policy_path,
@@ -104,7 +103,7 @@ def make_tasks(jobs: Sequence[EvalJob], parts: int) -> list[EvalTask]:
     tasks = []
     for index, job in enumerate(jobs):
         if job.policy not in files:
-            builtin = job.policy in BUILTIN_POLICIES or job.policy in EVAL_ONLY_POLICIES
+            builtin = job.policy in FILELESS_POLICIES
             files[job.policy] = None if builtin else resolve_policy_path(job.policy).read_bytes()
         for i, seeds in enumerate(split_seeds(job.seeds, parts)):
             tasks.append(

@@ -6,7 +6,8 @@ file format with only numpy and protobuf). The x axis is the sample count, Clean
 ``global_step``, so a resumed run continues its curves in the same folder.
 
 * every :data:`TRAINING_EVERY` iterations: ``losses/td_loss``, ``charts/epsilon``,
-  ``charts/iterations_per_s`` and ``charts/samples_per_s`` (of this session's training);
+  ``charts/iterations_per_s`` and ``charts/samples_per_s`` (of this session's training
+  phase, as the run's summary counts them);
 * at every evaluation: ``eval/score``, ``eval/score_sem``, ``eval/belief_iou``,
   ``eval/reward_mean``, ``eval/q_predicted`` and ``eval/q_collected`` (the greedy policy's
   predicted and collected discounted returns).
@@ -15,11 +16,12 @@ file format with only numpy and protobuf). The x axis is the sample count, Clean
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 from types import TracebackType
 
 from tensorboardX import SummaryWriter
+
+from wildfire_learning.train_config import TrainState
 
 TRAINING_EVERY = 100
 """Iterations between two logs of the training scalars (CleanRL logs every 100 steps)."""
@@ -42,22 +44,20 @@ def log_dir(run_dir: Path) -> Path:
 class ScalarLog:
     """The scalars of one session of a run (see the module docstring); a context manager."""
 
-    def __init__(self, run_dir: Path, samples: int, iterations: int) -> None:
+    def __init__(self, run_dir: Path) -> None:
         self.writer = SummaryWriter(str(log_dir(run_dir)))
-        self.start = time.perf_counter()
-        self.samples0, self.iterations0 = samples, iterations
 
-    def training(self, samples: int, iterations: int, loss: float | None, epsilon: float) -> None:
-        """The training scalars, every :data:`TRAINING_EVERY` iterations."""
-        if iterations % TRAINING_EVERY:
+    def training(self, state: TrainState, epsilon: float, rates: tuple[float, float]) -> None:
+        """The training scalars, every :data:`TRAINING_EVERY` iterations; ``rates``: the
+        session's training-phase samples/s and iterations/s (``Session.training_rates``)."""
+        if state.iterations % TRAINING_EVERY:
             return
-        elapsed = max(time.perf_counter() - self.start, 1e-9)
-        if loss is not None:
-            self.writer.add_scalar("losses/td_loss", loss, samples)
+        samples = state.samples
+        if math.isfinite(state.last_loss):  # NaN until the first iteration
+            self.writer.add_scalar("losses/td_loss", state.last_loss, samples)
         self.writer.add_scalar("charts/epsilon", epsilon, samples)
-        rate = (iterations - self.iterations0) / elapsed
-        self.writer.add_scalar("charts/iterations_per_s", rate, samples)
-        self.writer.add_scalar("charts/samples_per_s", (samples - self.samples0) / elapsed, samples)
+        self.writer.add_scalar("charts/samples_per_s", rates[0], samples)
+        self.writer.add_scalar("charts/iterations_per_s", rates[1], samples)
 
     def evaluation(self, row: dict[str, float]) -> None:
         """One learning-curve row (``plots.CURVE_FIELDS``); columns it lacks or holds as NaN

@@ -79,17 +79,25 @@ class Session:
         if self.prefill_samples:
             self.prefill_rate = self.prefill_samples / (self.train_start - self.start)
 
+    def train_wall_s(self) -> float:
+        """Wall time of this session's training phase so far (0 before it started)."""
+        return time.perf_counter() - self.train_start if self.train_start else 0.0
+
+    def training_rates(self, state: TrainState) -> tuple[float, float]:
+        """This session's training-phase samples/s and iterations/s so far (0 before)."""
+        train_wall = self.train_wall_s()
+        if train_wall <= 0:
+            return 0.0, 0.0
+        samples = state.samples - self.samples0
+        return samples / train_wall, (state.iterations - self.iterations0) / train_wall
+
     def close(self, state: TrainState) -> tuple[float, float]:
         """Add this session's training phase to ``state``'s totals; return its samples/s and
         iterations/s (0 when it never trained)."""
-        train_wall = time.perf_counter() - self.train_start if self.train_start else 0.0
-        samples = state.samples - self.samples0
-        iterations = state.iterations - self.iterations0
-        state.train_wall_s += train_wall
-        state.train_samples += samples
-        if train_wall <= 0:
-            return 0.0, 0.0
-        return samples / train_wall, iterations / train_wall
+        rates = self.training_rates(state)
+        state.train_wall_s += self.train_wall_s()
+        state.train_samples += state.samples - self.samples0
+        return rates
 
 
 def max_rss_mb() -> float:
