@@ -70,7 +70,7 @@ def turn_rate(bank_rad: np.ndarray) -> np.ndarray:
 
 
 def _arc(
-    heading_rad: np.ndarray, new_heading_rad: np.ndarray, rate: np.ndarray, dt: float
+    heading_rad: np.ndarray, new_heading_rad: np.ndarray, rate: np.ndarray, dt: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """(dx, dy) of flying from ``heading_rad`` to ``new_heading_rad`` at turn rate ``rate``.
 
@@ -86,8 +86,9 @@ def _arc(
     return np.where(turning, arc_dx, line_dx), np.where(turning, arc_dy, line_dy)
 
 
-def propagate(state: AircraftState, dt: float = DECISION_PERIOD_S) -> AircraftState:
-    """Fly every aircraft for ``dt`` seconds at constant bank, integrating the arc exactly."""
+def propagate(state: AircraftState, dt: float | np.ndarray = DECISION_PERIOD_S) -> AircraftState:
+    """Fly every aircraft for ``dt`` seconds (one or per aircraft) at constant bank,
+    integrating the arc exactly."""
     rate = turn_rate(state.bank_rad)
     new_heading = state.heading_rad + rate * dt
     dx, dy = _arc(state.heading_rad, new_heading, rate, dt)

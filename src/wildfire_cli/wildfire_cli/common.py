@@ -9,6 +9,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from wildfire_belief.radio import CommError, CommModel
 from wildfire_sim.defaults import EPISODE_DEFAULTS
 
 
@@ -24,6 +25,7 @@ def _project_user_errors() -> tuple[type[BaseException], ...]:
         ("wildfire_sim.errors", "FireConfigError"),
         ("wildfire_agent.errors", "AgentConfigError"),
         ("wildfire_learning.errors", "LearningError"),
+        ("wildfire_belief.radio", "CommError"),
     ):
         try:
             module = __import__(module_name, fromlist=[class_name])
@@ -100,6 +102,27 @@ def unit_interval(text: str) -> float:
     return value
 
 
+def comm_model(text: str) -> CommModel:
+    """argparse type: a radio model, ``ideal``, ``none`` or ``range=R[,loss=P][,delay=D]``."""
+    try:
+        return CommModel.parse(text)
+    except CommError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def add_comm_argument(parser: argparse.ArgumentParser) -> None:
+    """``--comm MODEL``: the radio links between the aircraft (default: ideal)."""
+    parser.add_argument(
+        "--comm",
+        type=comm_model,
+        default=CommModel(),
+        metavar="MODEL",
+        help="radio links: ideal (one shared belief, the default), none, or "
+        "range=R[,loss=P][,delay=D] (metres, loss probability per message, decisions): each "
+        "aircraft then decides on its own belief replica and what it heard of its peers",
+    )
+
+
 def add_episode_arguments(
     parser: argparse.ArgumentParser, default_seed: int, seed_help: str
 ) -> None:
@@ -126,6 +149,7 @@ def add_episode_arguments(
         "--seed", type=non_negative_int, default=default_seed, metavar="S", help=seed_help
     )
     add_duration_argument(parser)
+    add_comm_argument(parser)
 
 
 def add_max_wind_argument(parser: argparse.ArgumentParser | argparse._ActionsContainer) -> None:
@@ -201,6 +225,7 @@ def scenario_settings(args: argparse.Namespace) -> dict[str, Any]:
         "n_aircraft": args.aircraft,
         "wind": args.wind,
         "max_duration_s": args.duration,
+        "comm": args.comm,
     }
     if args.max_wind is not None:
         settings["max_wind"] = args.max_wind

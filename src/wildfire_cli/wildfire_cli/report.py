@@ -14,6 +14,7 @@ from typing import Any
 from wildfire_agent.policy_names import FILELESS_POLICIES, resolve_policy_path
 from wildfire_cli.common import (
     UserError,
+    add_comm_argument,
     add_duration_argument,
     add_max_wind_argument,
     add_parallel_arguments,
@@ -86,6 +87,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     )
     add_max_wind_argument(parser)
     add_duration_argument(parser)
+    add_comm_argument(parser)
     parser.add_argument(
         "--out",
         type=Path,
@@ -154,7 +156,9 @@ def collect_results(
         for policy in policies:
             builtin = policy in FILELESS_POLICIES
             policy_file = None if builtin else resolve_policy_path(policy)
-            identity = fingerprint(policy, policy_file, seeds, base.max_wind, args.duration)
+            identity = fingerprint(
+                policy, policy_file, seeds, base.max_wind, args.duration, base.comm
+            )
             path = evaluation_path(args.out, policy, scenario)
             stored = None if args.fresh else load_cached(path, identity)
             label = f"{policy_label(policy)} on {scenario.title}"
@@ -256,7 +260,7 @@ def run(args: argparse.Namespace) -> int:
     scenarios = list(dict.fromkeys(Scenario.parse(text) for text in args.scenarios))
     policies = check_policies(args.policies)
     out_dir = output_dir(args.out)
-    base = EnvConfig(max_duration_s=args.duration)
+    base = EnvConfig(max_duration_s=args.duration, comm=args.comm)
     if args.max_wind is not None:
         base = replace(base, max_wind=args.max_wind)
     base.validate()
@@ -269,6 +273,8 @@ def run(args: argparse.Namespace) -> int:
         f"{args.duration:g} s ending when the fire comes within {base.border_cells} cells of the "
         "border (docs/model.md, Evaluation)."
     )
+    if not base.comm.ideal:
+        protocol += f" Radio links {base.comm} (docs/model.md, Radio links)."
     markdown = results_markdown(results, scenarios, policies, protocol)
     (out_dir / "results.md").write_text(markdown)
     plot_scores(results, scenarios, policies, out_dir / "scores.png")
@@ -278,6 +284,7 @@ def run(args: argparse.Namespace) -> int:
         "seeds": seeds,
         "max_wind": base.max_wind,
         "duration_s": args.duration,
+        "comm": str(base.comm),
         "scenarios": [s.key for s in scenarios],
         "policies": policies,
         "cells": {s: {c: vars(cell) for c, cell in row.items()} for s, row in cells.items()},

@@ -210,6 +210,11 @@ def build_spec(args: argparse.Namespace) -> Any:
     if args.respawn and not args.realtime:
         raise UserError("--respawn: only with --realtime (lockstep runs are exact replays)")
     config = EnvConfig(shapes=(shape.value,), **scenario_settings(args)).validate()
+    if not config.comm.ideal:
+        raise UserError(
+            f"--comm {config.comm}: the distributed system flies ideal links only so far "
+            "(`wildfire eval --comm` has the radio model)"
+        )
     scenario = draw_scenario(args.seed, config)
     start = np.stack([scenario.start.x_m, scenario.start.y_m, scenario.start.heading_rad], axis=1)
     return RunSpec(

@@ -20,6 +20,7 @@ from typing import Any
 from wildfire_cli.common import (
     UserError,
     add_device_argument,
+    comm_model,
     non_negative_int,
     positive_float,
     positive_int,
@@ -46,6 +47,11 @@ def add_config_options(parser: argparse.ArgumentParser) -> None:
         common: dict[str, Any] = {"dest": spec.name, "default": None, "help": help_text}
         if "choices" in meta:
             parser.add_argument(option, choices=meta["choices"], **common)
+        elif meta.get("comm"):
+            # Checked as --comm is everywhere, stored as its canonical text.
+            parser.add_argument(
+                option, type=lambda text: str(comm_model(text)), metavar="MODEL", **common
+            )
         elif isinstance(default, bool):
             parser.add_argument(option, action=argparse.BooleanOptionalAction, **common)
         elif isinstance(default, tuple):

@@ -28,6 +28,7 @@ import numpy as np
 
 from wildfire_agent.approaches import APPROACHES
 from wildfire_agent.policy_names import ORACLE_POLICY
+from wildfire_belief.radio import IDEAL, CommModel
 from wildfire_learning.errors import LearningError
 from wildfire_learning.summary_stats import standard_error
 from wildfire_sim.shapes import Shape
@@ -107,9 +108,17 @@ def policy_label(policy: str) -> str:
 
 
 def fingerprint(
-    policy: str, policy_file: Path | None, seeds: list[int], max_wind: float, duration_s: float
+    policy: str,
+    policy_file: Path | None,
+    seeds: list[int],
+    max_wind: float,
+    duration_s: float,
+    comm: CommModel = IDEAL,
 ) -> dict[str, Any]:
-    """What an evaluation depends on, beyond the code: equal fingerprints, equal results."""
+    """What an evaluation depends on, beyond the code: equal fingerprints, equal results.
+
+    The radio model joins it only when the links are not ideal: stored results of the
+    paper's shared belief keep their fingerprints."""
     identity: dict[str, Any] = {
         # Keyed "controller", the word for a policy before it had one word: stored results
         # (docs/results/evaluations) stay reusable.
@@ -118,6 +127,8 @@ def fingerprint(
         "max_wind": max_wind,
         "duration_s": duration_s,
     }
+    if not comm.ideal:
+        identity["comm"] = str(comm)
     if policy_file is not None:
         identity["policy_sha256"] = hashlib.sha256(policy_file.read_bytes()).hexdigest()
     return identity

@@ -23,6 +23,7 @@ from typing import Any
 
 from wildfire_agent.approaches import APPROACHES, IMAGE_SHAPES
 from wildfire_agent.pairwise import STATE_SIZE
+from wildfire_belief.radio import CommError, CommModel
 from wildfire_learning.architectures import ARCHITECTURES, build_q_network
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
@@ -97,6 +98,12 @@ class TrainConfig:
         EPISODE_DEFAULTS.max_wind,
         "Each wind component is uniform in [-max_wind, max_wind] (random wind).",
         unit=True,
+    )
+    comm: str = hyperparameter(
+        "ideal",
+        "Radio links: ``ideal`` (one shared belief), ``none`` or ``range=R[,loss=P][,delay=D]`` "
+        "(each aircraft observes its own belief replica and heard peers).",
+        comm=True,
     )
     episode_seconds: float = hyperparameter(
         EPISODE_DEFAULTS.duration_s, "Time limit of an episode (training and evaluation)."
@@ -192,7 +199,15 @@ class TrainConfig:
             shapes=tuple(self.shapes),
             max_wind=self.max_wind,
             max_duration_s=self.episode_seconds,
+            comm=self.comm_model(),
         ).validate()
+
+    def comm_model(self) -> CommModel:
+        """The radio model of ``comm``, or :class:`LearningError` naming it."""
+        try:
+            return CommModel.parse(self.comm)
+        except CommError as error:
+            raise LearningError(str(error)) from None
 
     def eval_env_config(self) -> EnvConfig:
         """Environment of evaluation episodes (the score is the team reward either way)."""

@@ -23,6 +23,8 @@ class Stream(IntEnum):
     """Shape draw, wind draw and aircraft start poses."""
     AIRCRAFT = 2
     """Per-aircraft policy randomness (random policy, planner restarts, exploration)."""
+    RADIO = 3
+    """Per-link message loss of the radio model (``wildfire_belief.radio``)."""
 
 
 def generator(seed: int, stream: Stream, *index: int) -> np.random.Generator:
