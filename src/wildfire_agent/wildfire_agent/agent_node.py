@@ -33,17 +33,19 @@ from wildfire_agent.agent_protocol import (
     DeadlineOut,
     Mode,
     Output,
+    RadioOut,
     StateOut,
 )
-from wildfire_agent.dynamics import AircraftState
+from wildfire_agent.dynamics import MAX_BANK_STEPS, AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policy_names import BUILTIN_POLICIES, EXPECTED_POLICIES
-from wildfire_msgs_py import codecs, contract, system_codecs
+from wildfire_msgs_py import codecs, contract, radio_codec, system_codecs
 from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.wire_checks import (
     checked_age_image,
     checked_episode,
     checked_fire_grid,
+    checked_radio,
     checked_score,
     checked_stamped_state,
 )
@@ -56,6 +58,7 @@ from wildfire_ros.node_support import (
 )
 from wildfire_ros.runtime import Node
 from wildfire_sim.episode import EPISODE_DEFAULTS, MODES
+from wildfire_sim.shapes import Shape
 
 PARAMETERS = (
     ParamSpec("aircraft", 0, "index k of this aircraft (namespace /uavK)", 0, 63),
@@ -73,6 +76,18 @@ PARAMETERS = (
     ParamSpec("rh_replan_every", 10, "receding horizon: decisions flown per plan", 1, 399),
     ParamSpec("rh_restarts", 4, "receding horizon: random restarts per plan", 1, 64),
     ParamSpec("torch_threads", 1, "CPU threads of the Q-network", 1, 64),
+    ParamSpec(
+        "comm",
+        "ideal",
+        "radio links: ideal (decide on the aggregator's shared belief), none or "
+        "range=R[,loss=P][,delay=D] (decide on the own replica; lockstep)",
+    ),
+    ParamSpec(
+        "shape",
+        EPISODE_DEFAULTS.shape,
+        "ignition shape (the replica's start under limited links)",
+        choices=tuple(s.value for s in Shape),
+    ),
 )
 
 
@@ -105,6 +120,7 @@ class AgentNode(Node):
         self.diagnostics_pub = publisher(contract.DIAGNOSTICS)
         self.ack_pub = publisher(contract.ACK)
         self.snapshot_pub = publisher(contract.BELIEF_SNAPSHOT)
+        self.radio_pub = publisher(contract.RADIO) if protocol.radio is not None else None
 
         # Deep reader histories on the inputs lockstep waits for: a flood on a keyless topic
         # must not push the honest sample out of the queue before the executor takes it.
@@ -137,6 +153,15 @@ class AgentNode(Node):
                 qos=deep,
                 guard=guard,
             )
+            if protocol.radio is not None:
+                contract_subscription(
+                    self,
+                    contract.RADIO,
+                    functools.partial(self.deliver, functools.partial(self.peer_radio, j)),
+                    aircraft=j,
+                    qos=deep,
+                    guard=guard,
+                )
         self.publish(protocol.start())
         self.startup_timer = self.create_timer(0.1, self.startup_timer_callback)
         if protocol.mode is Mode.REALTIME:
@@ -154,6 +179,9 @@ class AgentNode(Node):
 
     def peer_state(self, j: int, msg: Any) -> list[Output]:
         return self.protocol.on_peer_state(j, *checked_stamped_state(msg, MAX_BANK_RAD))
+
+    def peer_radio(self, j: int, msg: Any) -> list[Output]:
+        return self.protocol.on_radio(j, *checked_radio(msg, j, MAX_BANK_STEPS))
 
     def belief_request_callback(self, msg: Any) -> None:
         snapshot = self.protocol.on_belief_request(time.monotonic())
@@ -183,6 +211,9 @@ class AgentNode(Node):
                 self.odom_pub.publish(codecs.pose_to_odometry(out.vector, self.k, out.stamp))
             elif isinstance(out, AckOut):
                 self.ack_pub.publish(system_codecs.ack_to_msg(self.name_tag, out.stamp))
+            elif isinstance(out, RadioOut):
+                assert self.radio_pub is not None
+                self.radio_pub.publish(radio_codec.radio_to_msg(out.message))
             elif isinstance(out, DeadlineOut):
                 inputs = self.input_guard.status(f"{self.name_tag}/agent", self.name_tag)
                 message = codecs.diagnostics_to_msg([out.status, inputs], out.stamp)

@@ -17,6 +17,11 @@ tick has used is forgotten and later copies are refused as replays.
 
 Real time: :meth:`AgentProtocol.on_timer` decides from the newest inputs once per 100 ms
 slot; a decision that ends after its slot counts as a missed deadline.
+
+Limited radio links (lockstep): the agent also sends its radio message of each tick, waits
+for every peer's instead of their stamped states, and decides on its own replica and heard
+peers (:class:`~wildfire_agent.aircraft_radio.AircraftRadio`), never on the aggregator's
+belief.
 """
 
 from __future__ import annotations
@@ -29,9 +34,11 @@ import numpy as np
 
 from wildfire_agent import dynamics
 from wildfire_agent.aircraft_policy import AircraftPolicy
+from wildfire_agent.aircraft_radio import AircraftRadio, window_of
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.receding_horizon import RecedingHorizonConfig
+from wildfire_belief.radio import CommError, CommModel
 from wildfire_belief.visits import visit_windows, window_values
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
 from wildfire_msgs_py.contract import AIRCRAFT_PREFIX, DEADLINE_STATUS
@@ -41,6 +48,7 @@ from wildfire_msgs_py.input_guard import (
     TickInbox,
     check_status_tick,
 )
+from wildfire_msgs_py.radio_codec import RadioMessage
 from wildfire_msgs_py.system_codecs import BeliefSnapshot, EpisodeStatus
 from wildfire_sim.episode import (
     AHEAD_TICKS,
@@ -49,6 +57,7 @@ from wildfire_sim.episode import (
     REALTIME_AHEAD_NS,
     Mode,
     fire_step_tick,
+    initial_fire,
     stamp_ceiling_ns,
 )
 
@@ -82,6 +91,13 @@ class VisitOut(NamedTuple):
     window: VisitWindow
 
 
+class RadioOut(NamedTuple):
+    """The radio message of a tick (limited links only)."""
+
+    stamp: int
+    message: RadioMessage
+
+
 class AckOut(NamedTuple):
     """Tick done: acknowledge it on ``/wildfire/ack``."""
 
@@ -95,7 +111,7 @@ class DeadlineOut(NamedTuple):
     status: NodeStatus
 
 
-Output = StateOut | VisitOut | AckOut | DeadlineOut
+Output = StateOut | VisitOut | RadioOut | AckOut | DeadlineOut
 
 
 class DeadlineStats:
@@ -198,7 +214,10 @@ class AgentProtocol:
         name_tag: str,
         now_ns: Callable[[], int],
         clock: Callable[[], float] = time.monotonic,
+        radio: AircraftRadio | None = None,
     ) -> None:
+        if radio is not None and mode is not Mode.LOCKSTEP:
+            raise AgentConfigError("comm: limited radio links fly in lockstep only so far")
         self.k = k
         self.n = n
         self.mode = mode
@@ -223,16 +242,24 @@ class AgentProtocol:
         self.last_answer_s = -float("inf")
         self.stats = DeadlineStats()
         self.slot_start: float | None = None
+        self.radio = radio
+        self.radio_inbox: dict[int, TickInbox[tuple[RadioMessage, VisitWindow]]] = {
+            j: TickInbox(tick_ns) for j in self.peer_states
+        }
+        self.window: VisitWindow | None = None
+        """The own visit window of the newest visited tick."""
+        self.received_tick = -1
 
     @property
     def keeps_belief(self) -> bool:
         """Whether the agent needs the shared belief (and the score).
 
-        Belief policies decide from it, and in real time each agent keeps a copy for an
-        aggregator that restarts (lockstep runs never respawn): a lockstep agent flying
-        another policy skips two 100 x 100 grids per tick.
+        Belief policies decide from it (unless the links are limited: then from their own
+        replica), and in real time each agent keeps a copy for an aggregator that restarts
+        (lockstep runs never respawn): a lockstep agent flying another policy skips two
+        100 x 100 grids per tick.
         """
-        return self.policy.needs_belief or self.mode is Mode.REALTIME
+        return (self.policy.needs_belief and self.radio is None) or self.mode is Mode.REALTIME
 
     # --- stamps -------------------------------------------------------------------------------
 
@@ -265,7 +292,16 @@ class AgentProtocol:
             bank_steps=np.array([p["start_bank_steps"]], dtype=np.int64),
         )
         policy = AircraftPolicy(p["policy"], k, n, p["seed"], planner)
-        return cls(k, n, Mode(p["mode"]), policy, start, f"{AIRCRAFT_PREFIX}{k}", now_ns)
+        try:
+            comm = CommModel.parse(p["comm"])
+        except CommError as error:
+            raise AgentConfigError(str(error)) from None
+        radio = None
+        if not comm.ideal:
+            ignition = initial_fire(p["seed"], p["shape"]).burning[0]
+            radio = AircraftRadio(comm, k, n, p["seed"], ignition)
+        name_tag = f"{AIRCRAFT_PREFIX}{k}"
+        return cls(k, n, Mode(p["mode"]), policy, start, name_tag, now_ns, radio=radio)
 
     # --- inputs -------------------------------------------------------------------------------
 
@@ -300,6 +336,13 @@ class AgentProtocol:
         states.accept(stamp, vector)
         if self.mode is Mode.REALTIME:
             states.discard_below(stamp)  # the newest pose is the peer's pose
+        return self.advance()
+
+    def on_radio(self, j: int, stamp: int, message: RadioMessage) -> list[Output]:
+        """Peer ``j``'s radio message (its window checked against its pose here)."""
+        inbox = self.radio_inbox[j]
+        inbox.ceiling = self.ahead_limit_ns()
+        inbox.accept(stamp, (message, window_of(message)))
         return self.advance()
 
     def on_belief(self, stamp: int, burning: np.ndarray) -> list[Output]:
@@ -384,17 +427,23 @@ class AgentProtocol:
             if burning is None:
                 return out
             if self.visited_tick < tick:
-                out.append(VisitOut(self.stamp(tick), self.visit(burning)))
+                self.window = self.visit(burning)
+                out.append(VisitOut(self.stamp(tick), self.window))
+                if self.radio is not None:
+                    message = self.radio.message(tick, self.state, self.window)
+                    out.append(RadioOut(self.stamp(tick), message))
                 self.visited_tick = tick
             if self.final_tick is not None and tick >= self.final_tick:
                 self.decided_tick = tick
                 return [*out, *self.deadline(tick, force=True), AckOut(self.stamp(tick))]
             stamp = tick * DECISION_PERIOD_NS
-            team = self.team_at(stamp)
+            team = self.heard_team(tick) if self.radio is not None else self.team_at(stamp)
             if team is None:
                 return out
             belief = ages = None
-            if self.policy.needs_belief:
+            if self.radio is not None:
+                belief, ages = self.radio.belief()
+            elif self.policy.needs_belief:
                 belief, ages = self.belief.get(stamp), self.ages.get(stamp)
                 if belief is None or ages is None:
                     return out
@@ -415,10 +464,33 @@ class AgentProtocol:
             return None
         return team_state(self.state, self.k, [v for v in peers if v is not None])
 
+    def heard_team(self, tick: int) -> AircraftState | None:
+        """Limited links: the team as heard at ``tick``; None while a peer's tick-``tick``
+        message (or, at tick 0, start pose) is missing."""
+        assert self.radio is not None
+        if self.received_tick < tick:
+            if tick == 0:
+                start = self.team_at(0)
+                if start is None:
+                    return None
+                self.radio.start(start)
+            else:
+                stamp = tick * DECISION_PERIOD_NS
+                peers = {j: inbox.get(stamp) for j, inbox in self.radio_inbox.items()}
+                if any(received is None for received in peers.values()):
+                    return None
+                assert self.window is not None
+                heard = {j: received for j, received in peers.items() if received is not None}
+                self.radio.receive(tick, self.state, self.window, heard)
+            self.received_tick = tick
+        return self.radio.team(self.state)
+
     def forget_tick(self, tick: int) -> None:
         """What tick ``tick`` used is done with: later copies of it are replays."""
         for states in self.peer_states.values():
             states.discard_below((tick + 1) * DECISION_PERIOD_NS)
+        for inbox in self.radio_inbox.values():
+            inbox.discard_below((tick + 1) * DECISION_PERIOD_NS)
         self.fire.discard_below(fire_step_tick(tick + 1) * DECISION_PERIOD_NS)
 
     # --- outputs ------------------------------------------------------------------------------
@@ -447,6 +519,7 @@ __all__ = [
     "DeadlineStats",
     "Mode",
     "Output",
+    "RadioOut",
     "StateOut",
     "VisitOut",
     "next_slot_start",

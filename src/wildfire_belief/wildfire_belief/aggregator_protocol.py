@@ -12,6 +12,9 @@ raises :class:`~wildfire_msgs_py.input_guard.RejectedMessage`.
   tick and the tick is acknowledged. Visits of a merged tick are replays.
 * Real time: :meth:`AggregatorProtocol.on_timer` merges whatever visits arrived since the
   last timer tick.
+* Ground station only (limited radio links): the agents decide on their own replicas, so
+  the lockstep does not wait for the aggregator (``reports=False``: no acknowledgements);
+  it merges and publishes as it goes, and the run flies on if it dies.
 * Restart: a real-time aggregator that starts into a running episode (status tick > 0)
   asks for the agents' copies and continues from the newest one, or from the ignition seed
   once ``recover_timeout_s`` passes without any.
@@ -89,8 +92,10 @@ class AggregatorProtocol:
         now_ns: Callable[[], int],
         recover_timeout_s: float = 3.0,
         clock: Callable[[], float] = time.monotonic,
+        reports: bool = True,
     ) -> None:
         self.n = n
+        self.reports = reports
         self.mode = mode
         self.aggregator = BeliefAggregator(ignition)
         self.now_ns = now_ns
@@ -156,7 +161,7 @@ class AggregatorProtocol:
         if not self.ready_sent:
             out.append(self.belief(self.stamp(0)))
             self.ready_sent = True
-            out.append(AckOut(NAME + READY_SUFFIX, 0))
+            out += self.ack(NAME + READY_SUFFIX, 0)
         return out + self.merge_lockstep()
 
     def on_status(self, status: EpisodeStatus) -> list[Output]:
@@ -173,7 +178,7 @@ class AggregatorProtocol:
         self.status_tick = max(self.status_tick, status.tick)
         self.final = self.final or status.final
         if lockstep and self.started and status.tick == 0:
-            out.append(AckOut(NAME, 0))
+            out += self.ack(NAME, 0)
         return out + self.merge_lockstep()
 
     def on_visit(self, k: int, stamp: int, window: VisitWindow) -> list[Output]:
@@ -217,7 +222,11 @@ class AggregatorProtocol:
             for inbox in self.visits:
                 inbox.discard_below(stamp + DECISION_PERIOD_NS)
             self.aggregator.merge(windows)
-            out += [self.belief(stamp), AckOut(NAME, stamp)]
+            out += [self.belief(stamp), *self.ack(NAME, stamp)]
+
+    def ack(self, reporter: str, stamp: int) -> list[Output]:
+        """An acknowledgement, if the lockstep waits for this aggregator."""
+        return [AckOut(reporter, stamp)] if self.reports else []
 
     def begin_recovery(self) -> list[Output]:
         self.recovering_since = self.clock()

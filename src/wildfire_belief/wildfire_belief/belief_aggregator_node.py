@@ -73,6 +73,12 @@ PARAMETERS = (
     ParamSpec(
         "recover_timeout_s", 3.0, "how long a restarted aggregator waits for a copy", 0.0, 60.0
     ),
+    ParamSpec(
+        "reports",
+        True,
+        "acknowledge lockstep ticks (false when the agents decide on their own replicas and "
+        "the fire simulator does not wait for the aggregator)",
+    ),
 )
 
 
@@ -91,6 +97,7 @@ class BeliefAggregatorNode(Node):
             initial_fire(p["seed"], p["shape"]).burning[0],
             lambda: self.get_clock().now().nanoseconds,
             p["recover_timeout_s"],
+            reports=p["reports"],
         )
         self.input_guard = InputGuard(self.get_logger().warning)
 

@@ -84,6 +84,13 @@ class RunSpec:
     """Delay and loss on every host's link (with ``hosts``)."""
     partitions: tuple[Partition, ...] = ()
     """Hosts to cut off and heal during the flight (with ``hosts``)."""
+    comm: str = "ideal"
+    """Radio links between the aircraft (``wildfire_belief.radio``); under limited links the
+    agents decide on their own replicas and the aggregator is a ground station only."""
+
+    @property
+    def limited_links(self) -> bool:
+        return self.comm != "ideal"
 
     @property
     def mode(self) -> str:
@@ -150,12 +157,15 @@ def node_commands(
                     "duration_s": float(spec.duration_s),
                     "n_aircraft": spec.n_aircraft,
                     "extra_reporters": REPORTER,
+                    "aggregator_reports": not spec.limited_links,
                 }
             ),
         ],
         "belief_aggregator": [
             "wildfire_belief.belief_aggregator_node",
-            *_param_args({**common, "n_aircraft": spec.n_aircraft}),
+            *_param_args(
+                {**common, "n_aircraft": spec.n_aircraft, "reports": not spec.limited_links}
+            ),
         ],
     }
     for k in range(spec.n_aircraft):
@@ -175,6 +185,8 @@ def node_commands(
             "start_heading": heading,
             "start_bank_steps": bank_steps,
         }
+        if spec.limited_links:
+            params |= {"comm": spec.comm, "shape": spec.shape}
         commands[f"uav{k}"] = [
             "wildfire_agent.agent_node",
             "--ros-args",
@@ -306,6 +318,8 @@ class Launcher:
         )
         self.partitions: PartitionSchedule | None = None
         self.respawns: dict[str, int] = {}
+        self.lost: dict[str, str] = {}
+        """Nodes the run flew on without: the ground station under limited links."""
         self.recorder: Any = None
         self.monitor: RunMonitorNode | None = None
         self.executor: Any = None
@@ -354,6 +368,13 @@ class Launcher:
                     newest = self.monitor.states[k].latest()
                     states = {k: newest[1]} if newest else None
                 self.start_node(name, node_commands(self.spec, states)[name])
+                continue
+            if self.spec.limited_links and name == "belief_aggregator":
+                # No decision depends on the ground station: fly on, scoring the union of
+                # visits in the monitor.
+                print(f"wildfire run: node {name} died ({how}): flying on", file=sys.stderr)
+                self.lost[name] = f"died ({how}): {why}"
+                del self.processes[name]
                 continue
             raise NodeFailure(f"node {name} died ({how}): {why}")
 
@@ -427,7 +448,13 @@ class Launcher:
         start = time.monotonic()
         try:
             self.executor = runtime.make_executor()
-            self.monitor = RunMonitorNode(self.spec.n_aircraft, self.spec.lockstep, self.spec.seed)
+            self.monitor = RunMonitorNode(
+                self.spec.n_aircraft,
+                self.spec.lockstep,
+                self.spec.seed,
+                union_score=self.spec.limited_links,
+                shape=self.spec.shape,
+            )
             self.executor.add_node(self.monitor)
             if self.spec.record_dir is not None:
                 from wildfire_ros.bag import BagRecorder

@@ -7,6 +7,14 @@ deadline statistics and the episode status. In lockstep it is a reporter too
 (``wildfire_run``): it acknowledges tick ``k`` once it holds every aircraft's ``s_{k+1}``, so
 the recorder spinning in the same process never falls behind the system.
 
+Under limited radio links (``union_score``) no decision depends on the belief aggregator,
+which may die mid-run: the monitor then merges every aircraft's visits itself, with the
+aggregator's own functions, and its score, belief and ages are those of the union of visits
+(what a ground station with perfect links would know, and what ``wildfire eval`` scores). It
+acknowledges a tick only once that tick's visits are merged too. It also counts the bytes
+of every radio message as serialized on the wire (raw subscriptions: the CDR payload each
+reader receives), for the radio bandwidth per aircraft.
+
 Like every node it checks what it receives (:mod:`wildfire_msgs_py.wire_checks`), so the
 summary is built from the system's own messages; the dropped ones are counted.
 """
@@ -14,15 +22,18 @@ summary is built from the system's own messages; the dropped ones are counted.
 from __future__ import annotations
 
 import bisect
+import functools
 import time
 from typing import Any
 
 import numpy as np
 
 from wildfire_agent.agent_protocol import MAX_BANK_RAD
+from wildfire_belief.aggregator import BeliefAggregator
+from wildfire_belief.visits import VISIT_WINDOW
 from wildfire_bringup.trajectory import stacked_trajectory
 from wildfire_msgs_py import contract
-from wildfire_msgs_py.codecs import diagnostics_from_msg, fuel_grid_from_msg
+from wildfire_msgs_py.codecs import VisitWindow, diagnostics_from_msg, fuel_grid_from_msg
 from wildfire_msgs_py.input_guard import (
     INPUT_STATUS,
     DropReason,
@@ -38,11 +49,12 @@ from wildfire_msgs_py.wire_checks import (
     checked_fire_grid,
     checked_score,
     checked_stamped_state,
+    checked_visit,
 )
 from wildfire_ros.node_support import contract_publisher, contract_subscription
-from wildfire_ros.runtime import Node
+from wildfire_ros.runtime import Node, get_message, qos_profile
 from wildfire_sim.episode import DECISION_PERIOD_NS as TICK_NS
-from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
+from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, initial_fire
 
 REPORTER = "wildfire_run"
 MAX_STATUS_STEP = 2 * DECISIONS_PER_FIRE_STEP
@@ -51,7 +63,14 @@ MAX_STATUS_STEP = 2 * DECISIONS_PER_FIRE_STEP
 class RunMonitorNode(Node):
     """Collects trajectories and final maps; lockstep reporter ``wildfire_run``."""
 
-    def __init__(self, n_aircraft: int, lockstep: bool, seed: int) -> None:
+    def __init__(
+        self,
+        n_aircraft: int,
+        lockstep: bool,
+        seed: int,
+        union_score: bool = False,
+        shape: str = "circular",
+    ) -> None:
         super().__init__("wildfire_run")
         self.seed = seed
         self.n = n_aircraft
@@ -67,7 +86,13 @@ class RunMonitorNode(Node):
         self.belief: np.ndarray | None = None
         self.belief_stamp = -1
         self.ages: np.ndarray | None = None
-        self.score = 0.0
+        self.ground_score = 0.0
+        """The belief aggregator's score (the ground station's)."""
+        self.union: BeliefAggregator | None = None
+        self.visits: list[TickInbox[VisitWindow]] = []
+        if union_score:
+            self.union = BeliefAggregator(initial_fire(seed, shape).burning[0])
+            self.visits = [TickInbox(TICK_NS) for _ in range(n_aircraft)]
         self.deadlines: dict[int, dict[str, float]] = {}
         self.input_drops: dict[str, dict[str, float]] = {}
         self.acked_tick = -1
@@ -92,6 +117,17 @@ class RunMonitorNode(Node):
         subscribe(contract.SCORE, self.score_callback)
         for k in range(n_aircraft):
             subscribe(contract.STATE_STAMPED, lambda msg, k=k: self.state_callback(k, msg), k)
+        self.radio_bytes = np.zeros(n_aircraft, dtype=np.int64)
+        self.radio_messages = np.zeros(n_aircraft, dtype=np.int64)
+        for k in range(n_aircraft if union_score else 0):
+            subscribe(contract.VISIT, lambda msg, k=k: self.visit_callback(k, msg), k)
+            self.create_subscription(
+                get_message(contract.RADIO.type),
+                contract.RADIO.resolve(k),
+                functools.partial(self.radio_callback, k),
+                qos_profile(contract.QosSpec(depth=100, transient_local=True)),
+                raw=True,
+            )
         subscribe(contract.DIAGNOSTICS, self.diagnostics_callback)
         self.ack_pub.publish(ack_to_msg(REPORTER + READY_SUFFIX, 0))
 
@@ -126,7 +162,33 @@ class RunMonitorNode(Node):
 
     def score_callback(self, msg: Any) -> None:
         # Cumulative and unstamped: an older (replayed) value is smaller.
-        self.score = max(self.score, checked_score(msg))
+        self.ground_score = max(self.ground_score, checked_score(msg))
+        self._heard("belief_aggregator")
+
+    def visit_callback(self, k: int, msg: Any) -> None:
+        assert self.union is not None
+        self.visits[k].accept(*checked_visit(msg, VISIT_WINDOW))
+        while all((stamp := (self.union.ticks + 1) * TICK_NS) in inbox for inbox in self.visits):
+            windows = [inbox.items[stamp] for inbox in self.visits]
+            for inbox in self.visits:
+                inbox.discard_below(stamp + TICK_NS)
+            self.union.merge(windows)
+        self.report()
+
+    def radio_callback(self, k: int, data: bytes) -> None:
+        self.radio_bytes[k] += len(data)
+        self.radio_messages[k] += 1
+
+    @property
+    def score(self) -> float:
+        """The run's score: of the union of visits under limited links, else the aggregator's."""
+        return float(self.union.score) if self.union is not None else self.ground_score
+
+    def final_belief(self) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The belief and its ages at the end (of the union under limited links)."""
+        if self.union is not None:
+            return self.union.burning, self.union.age_s()
+        return self.belief, self.ages
 
     def state_callback(self, k: int, msg: Any) -> None:
         stamp, vector = checked_stamped_state(msg, MAX_BANK_RAD)
@@ -181,6 +243,8 @@ class RunMonitorNode(Node):
             tick = self.acked_tick + 1
             final = self.status.final and tick >= self.status.tick
             if not final and any((tick + 1) * TICK_NS not in s for s in self.states):
+                return
+            if self.union is not None and self.union.ticks < tick:
                 return
             self.acked_tick = tick
             self.ack_pub.publish(ack_to_msg(REPORTER, tick * TICK_NS))

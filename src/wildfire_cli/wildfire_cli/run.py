@@ -210,11 +210,8 @@ def build_spec(args: argparse.Namespace) -> Any:
     if args.respawn and not args.realtime:
         raise UserError("--respawn: only with --realtime (lockstep runs are exact replays)")
     config = EnvConfig(shapes=(shape.value,), **scenario_settings(args)).validate()
-    if not config.comm.ideal:
-        raise UserError(
-            f"--comm {config.comm}: the distributed system flies ideal links only so far "
-            "(`wildfire eval --comm` has the radio model)"
-        )
+    if not config.comm.ideal and args.realtime:
+        raise UserError(f"--comm {config.comm}: limited radio links fly in lockstep only so far")
     scenario = draw_scenario(args.seed, config)
     start = np.stack([scenario.start.x_m, scenario.start.y_m, scenario.start.heading_rad], axis=1)
     return RunSpec(
@@ -234,6 +231,7 @@ def build_spec(args: argparse.Namespace) -> Any:
         hosts=hosts,
         netem=netem,
         partitions=partitions,
+        comm=str(config.comm),
     )
 
 
@@ -274,10 +272,20 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         # Received messages each node refused (malformed, out of range, replayed, ...).
         "dropped_inputs": monitor.dropped_inputs(),
     }
-    if monitor.fire is not None and monitor.belief is not None:
-        result["belief_iou"] = float(belief_iou(monitor.belief[None], monitor.fire[None])[0])
-        if monitor.ages is not None:
-            age = mean_age_at_burning(monitor.ages[None], monitor.fire[None])[0]
+    belief, ages = monitor.final_belief()
+    if monitor.union is not None:
+        # Limited links: the score is the union's; the ground station's, if it flew to the end.
+        result["comm"] = spec.comm
+        result["aggregator_score"] = round(monitor.ground_score)
+        flight_s = max(decisions, 1) / 10.0
+        result["radio_bytes_per_s_per_aircraft"] = float(monitor.radio_bytes.mean() / flight_s)
+        result["radio_bytes_per_message"] = float(
+            monitor.radio_bytes.sum() / max(int(monitor.radio_messages.sum()), 1)
+        )
+    if monitor.fire is not None and belief is not None:
+        result["belief_iou"] = float(belief_iou(belief[None], monitor.fire[None])[0])
+        if ages is not None:
+            age = mean_age_at_burning(ages[None], monitor.fire[None])[0]
             result["mean_age_burning_s"] = None if np.isnan(age) else float(age)
     if monitor.fire is not None and len(trajectory):
         rows, cols = np.nonzero(monitor.fire)
@@ -353,6 +361,8 @@ def run(args: argparse.Namespace) -> int:
         result["record"] = str(spec.record_dir)
     if launcher.respawns:
         result["respawns"] = launcher.respawns
+    if launcher.lost:
+        result["lost_nodes"] = launcher.lost
     if network is not None:
         result["hosts"] = network.summary()
         faults = network_faults(launcher)

@@ -35,10 +35,13 @@ def flatten_aircraft(state: AircraftState) -> AircraftState:
     return AircraftState(*(field.reshape(-1) for field in state))
 
 
-def others_of(state: AircraftState) -> AircraftState:
-    """For each of the E * N aircraft, the poses of the other aircraft of its episode (P, K)."""
-    others = other_indices(state.x_m.shape[1])
-    return AircraftState(*(field[:, others].reshape(-1, others.shape[1]) for field in state))
+def others_of(views: AircraftState) -> AircraftState:
+    """For each of the E * N aircraft, the poses it knows of the other aircraft of its
+    episode, (P, K), from the team views (E, N, N) of ``WildfireVecEnv.team_views``."""
+    n = views.x_m.shape[-1]
+    others = other_indices(n)
+    receivers = np.arange(n)[:, None]
+    return AircraftState(*(f[:, receivers, others].reshape(-1, others.shape[1]) for f in views))
 
 
 def build_for(factory: PolicyFactory, env: WildfireVecEnv) -> Policy:
@@ -85,7 +88,7 @@ class RecedingHorizonVecPolicy:
         n = env.config.n_aircraft
         env_index = np.repeat(np.arange(env.num_envs), n)
         actions = self.planner.act(
-            flatten_aircraft(env.aircraft), others_of(env.aircraft), env_index, env.maps
+            flatten_aircraft(env.aircraft), others_of(env.team_views()), env_index, env.maps
         )
         return actions.reshape(env.num_envs, n)
 

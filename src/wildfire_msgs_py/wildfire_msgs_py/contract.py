@@ -25,7 +25,8 @@ topic                      type                                QoS (reliability,
 System topics of the running nodes (lockstep protocol, exact agent inputs, recovery):
 ``/wildfire/episode`` (DiagnosticStatus), ``/wildfire/ack`` (Header),
 ``/wildfire/belief_age_exact`` (Image 32FC1), ``/uavK/state_stamped`` (JointState),
-``/wildfire/belief_request`` (Header), ``/wildfire/belief_snapshot`` (Float64MultiArray);
+``/wildfire/belief_request`` (Header), ``/wildfire/belief_snapshot`` (Float64MultiArray),
+``/uavK/radio`` (UInt8MultiArray, under limited radio links);
 see the entries below and ``docs/ros2_layer.md``.
 
 Maps are latched (transient-local, depth 1) so a node or ``wildfire topic echo`` started late
@@ -50,6 +51,8 @@ MAP_FRAME = "map"
 GRID_SIZE = 100
 #: Side of a cell in metres (an OccupancyGrid's ``resolution``).
 CELL_SIZE_M = 10.0
+#: One decision is 0.1 s: tick ``k`` is stamped ``k * DECISION_PERIOD_NS`` of sim time.
+DECISION_PERIOD_NS = 100_000_000
 #: Prefix of an aircraft namespace; aircraft ``k`` lives in ``/uav{k}``.
 AIRCRAFT_PREFIX = "uav"
 
@@ -243,6 +246,15 @@ BELIEF_SNAPSHOT = TopicSpec(
     False,
     "an agent's copy of the shared belief: [time_s, score, believed (100x100), age_s (100x100)]",
 )
+RADIO = TopicSpec(
+    "radio",
+    "std_msgs/msg/UInt8MultiArray",
+    # Durable for the reason visits are: lockstep waits for every peer's message of a tick.
+    LATCHED_HISTORY,
+    True,
+    "the aircraft's radio message of one decision under limited links, ~90 bytes: tick, "
+    "aircraft, pose and the burning bits of its visited cells (wildfire_msgs_py.radio_codec)",
+)
 
 #: Every topic of the contract, in documentation order.
 TOPICS: tuple[TopicSpec, ...] = (
@@ -267,6 +279,7 @@ SYSTEM_TOPICS: tuple[TopicSpec, ...] = (
     STATE_STAMPED,
     BELIEF_REQUEST,
     BELIEF_SNAPSHOT,
+    RADIO,
 )
 
 _AIRCRAFT_NAMESPACE = re.compile(rf"^/{AIRCRAFT_PREFIX}(0|[1-9][0-9]*)$")
@@ -335,6 +348,7 @@ __all__ = [
     "CLOCK",
     "CLOCK_QOS",
     "DEADLINE_STATUS",
+    "DECISION_PERIOD_NS",
     "DIAGNOSTICS",
     "EPISODE",
     "FIRE_MAP",
@@ -343,6 +357,7 @@ __all__ = [
     "LATCHED_HISTORY",
     "MAP_FRAME",
     "ODOM",
+    "RADIO",
     "SCORE",
     "STATE",
     "STATE_STAMPED",

@@ -43,6 +43,8 @@ class DropReason(StrEnum):
     """A second message for a stamp already received: the first one counts."""
     RATE_LIMITED = "rate limited"
     """A request answered too recently to answer again."""
+    IMPERSONATION = "impersonation"
+    """A message that claims to come from another sender than its topic's (another aircraft)."""
 
 
 class RejectedMessage(MessageFieldError):

@@ -28,8 +28,9 @@ from wildfire_msgs_py.codecs import (
     time_from_msg,
     visit_from_msg,
 )
-from wildfire_msgs_py.contract import CELL_SIZE_M, GRID_SIZE, MAP_FRAME
+from wildfire_msgs_py.contract import CELL_SIZE_M, DECISION_PERIOD_NS, GRID_SIZE, MAP_FRAME
 from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
+from wildfire_msgs_py.radio_codec import RadioMessage, radio_from_msg
 from wildfire_msgs_py.system_codecs import (
     EPISODE_NAME,
     READY_SUFFIX,
@@ -125,6 +126,28 @@ def checked_stamped_state(msg: Any, max_bank_rad: float) -> tuple[int, np.ndarra
     return stamp, state
 
 
+def checked_radio(msg: Any, sender: int, max_bank_steps: int) -> tuple[int, RadioMessage]:
+    """Radio message of aircraft ``sender`` -> (stamp ns, message).
+
+    The window's cells and bits are checked against the pose by the receiver, which knows
+    which cells a pose visits (``wildfire_agent.aircraft_radio``).
+    """
+    message = radio_from_msg(msg)
+    if message.aircraft != sender:
+        raise _reject(
+            DropReason.IMPERSONATION,
+            f"aircraft {message.aircraft} on the radio topic of aircraft {sender}",
+        )
+    x, y, heading = message.x_m, message.y_m, message.heading_rad
+    if not all(math.isfinite(v) for v in (x, y, heading)):
+        raise _reject(DropReason.OUT_OF_RANGE, "pose values not finite")
+    if max(abs(x), abs(y)) > POSITION_LIMIT_M or abs(heading) > HEADING_LIMIT_RAD:
+        raise _reject(DropReason.OUT_OF_RANGE, f"position ({x:g}, {y:g}) or heading {heading:g}")
+    if abs(message.bank_steps) > max_bank_steps:
+        raise _reject(DropReason.OUT_OF_RANGE, f"bank {message.bank_steps} steps")
+    return message.tick * DECISION_PERIOD_NS, message
+
+
 def checked_visit(msg: Any, window_side: int) -> tuple[int, VisitWindow]:
     """Visit window -> (stamp ns, window) of the expected size, origin on the cell grid."""
     stamp = _stamp(msg.header)
@@ -199,6 +222,7 @@ __all__ = [
     "checked_age_image",
     "checked_episode",
     "checked_fire_grid",
+    "checked_radio",
     "checked_score",
     "checked_snapshot",
     "checked_stamped_state",

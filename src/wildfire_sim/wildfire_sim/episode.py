@@ -22,6 +22,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+# A tick's stamp is the wire's: every node and message shares one decision clock.
+from wildfire_msgs_py.contract import DECISION_PERIOD_NS
 from wildfire_sim.defaults import EPISODE_DEFAULTS, EpisodeDefaults
 from wildfire_sim.shapes import Shape, shape_masks
 
@@ -32,8 +34,6 @@ if TYPE_CHECKING:
 
 DECISIONS_PER_FIRE_STEP = 25
 """2.5 s fire steps at 10 Hz decisions."""
-DECISION_PERIOD_NS = 100_000_000
-"""One decision is 0.1 s; tick ``k`` happens at ``k * DECISION_PERIOD_NS`` of sim time."""
 NS_PER_S = 1_000_000_000
 FIRE_STEP_NS = DECISIONS_PER_FIRE_STEP * DECISION_PERIOD_NS
 """A fire step in nanoseconds (the stamps of successive fire maps)."""

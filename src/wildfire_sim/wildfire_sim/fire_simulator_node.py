@@ -82,6 +82,12 @@ PARAMETERS = (
     ParamSpec("mode", "lockstep", "lockstep (sim time, /clock) or realtime", choices=MODES),
     ParamSpec("n_aircraft", 2, "aircraft uav0..uav{n-1} that report in lockstep", 1, 64),
     ParamSpec("extra_reporters", "", "comma-separated further lockstep reporters"),
+    ParamSpec(
+        "aggregator_reports",
+        True,
+        "the lockstep waits for the belief aggregator (false when the agents decide on their "
+        "own replicas: the run then flies on without it)",
+    ),
 )
 
 
@@ -92,7 +98,9 @@ class FireSimulatorNode(Node):
         super().__init__(NAME, **kwargs)
         p = declare_parameters(self, PARAMETERS)
         mode = Mode(p["mode"])
-        reporters = {f"uav{k}" for k in range(p["n_aircraft"])} | {"belief_aggregator"}
+        reporters = {f"uav{k}" for k in range(p["n_aircraft"])}
+        if p["aggregator_reports"]:
+            reporters.add("belief_aggregator")
         reporters |= {r.strip() for r in p["extra_reporters"].split(",") if r.strip()}
         self.scenario: dict[str, Any] = {
             "seed": p["seed"],

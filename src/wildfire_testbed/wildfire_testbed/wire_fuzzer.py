@@ -36,7 +36,7 @@ from wildfire_ros.node_support import (
 )
 from wildfire_ros.runtime import Node, SingleThreadedExecutor, rclpy
 
-TICK_NS = 100_000_000
+TICK_NS = contract.DECISION_PERIOD_NS
 FAR_FUTURE_NS = 10**15
 """A stamp no episode reaches (11 days)."""
 REPLAY_DELAY_S = 1.0
