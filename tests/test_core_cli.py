@@ -86,6 +86,11 @@ def test_eval_json(tmp_path):
         (["eval", "--policy", "rh", "--card"], "--card: policy rh has no model card"),
         (["eval", "--max-wind", "1.5"], "--max-wind"),
         (["run", "--wind", "0,0", "--max-wind", "0.4"], "not allowed with argument --wind"),
+        (["eval", "--comm", "range=-3"], "range expected >= 0 m"),
+        (["eval", "--comm", "loss=1.2"], "loss expected in [0, 1]"),
+        (["report", "--comm", "power=5"], "keys range, loss, delay"),
+        (["train", "--comm", "range=300,loss=x"], "--comm"),
+        (["run", "--comm", "range=300", "--realtime"], "lockstep only"),
     ],
 )
 def test_bad_input_is_one_line_with_status_2(args, needle):

@@ -219,3 +219,64 @@ def test_without_links_each_aircraft_knows_its_own_visits_and_the_score_is_the_u
     expected = coast(start, np.array(200))
     assert team.x_m[0, 0, 1] == expected.x_m
     assert not math.isclose(team.x_m[0, 0, 1], alone.aircraft.x_m[0, 1])
+
+
+def test_episodes_that_end_early_leave_the_others_flying_under_the_radio() -> None:
+    """A batch whose episodes end at different ticks (the evaluation's case)."""
+    config = EnvConfig(observation="belief", reward="belief", comm=CommModel.parse("none"))
+    env = WildfireVecEnv(config, 3)
+    env.reset([3, 4, 5])
+    env.done[1] = True
+    rng = np.random.default_rng(1)
+    for _ in range(30):
+        env.step(rng.integers(0, 2, size=(3, 2)))
+    assert env.radio is not None
+    assert list(env.radio.replicas.now) == [30, 0, 30]
+
+
+def test_a_radio_message_is_under_a_hundred_bytes_and_reads_back() -> None:
+    from wildfire_agent.agent_protocol import visit_window
+    from wildfire_agent.aircraft_radio import AircraftRadio, window_of
+    from wildfire_msgs_py.radio_codec import radio_from_msg, radio_to_msg
+
+    burning = np.zeros((100, 100), dtype=bool)
+    burning[40:60, 45:55] = True
+    state = AircraftState(np.array([503.0]), np.array([455.5]), np.array([0.4]), np.array([-3]))
+    window = visit_window(state, burning)
+    radio = AircraftRadio(CommModel.parse("range=300"), 1, 2, 5, burning)
+    message = radio.message(7, state, window)
+    msg = radio_to_msg(message)
+    assert len(msg.data) <= 100 - 16  # plus 16 bytes of CDR framing on the wire
+    back = radio_from_msg(msg)
+    assert (back.tick, back.aircraft, back.bank_steps) == (7, 1, -3)
+    assert (back.x_m, back.y_m, back.heading_rad) == (503.0, 455.5, 0.4)
+    heard = window_of(back)
+    assert np.array_equal(heard.visited, window.visited)
+    assert np.array_equal(heard.burning, window.burning)
+
+
+def test_radio_messages_that_lie_are_dropped_with_their_reason() -> None:
+    from wildfire_agent.agent_protocol import visit_window
+    from wildfire_agent.aircraft_radio import AircraftRadio, window_of
+    from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
+    from wildfire_msgs_py.radio_codec import radio_to_msg
+    from wildfire_msgs_py.wire_checks import checked_radio
+
+    burning = np.ones((100, 100), dtype=bool)
+    state = AircraftState(np.array([500.0]), np.array([500.0]), np.array([0.0]), np.array([0]))
+    message = AircraftRadio(CommModel.parse("none"), 1, 2, 5, burning).message(
+        3, state, visit_window(state, burning)
+    )
+    assert checked_radio(radio_to_msg(message), 1, 10)[0] == 3 * 100_000_000
+    lies = {
+        DropReason.IMPERSONATION: (radio_to_msg(message), 0),
+        DropReason.OUT_OF_RANGE: (radio_to_msg(message._replace(x_m=float("nan"))), 1),
+    }
+    for reason, (msg, sender) in lies.items():
+        with pytest.raises(RejectedMessage) as error:
+            checked_radio(msg, sender, 10)
+        assert error.value.reason is reason
+    for lie in (message._replace(row0=message.row0 + 1), message._replace(bits=message.bits[:-1])):
+        with pytest.raises(RejectedMessage) as error:
+            window_of(lie)
+        assert error.value.reason is DropReason.MALFORMED

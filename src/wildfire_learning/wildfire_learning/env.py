@@ -413,7 +413,7 @@ class Radio:
         self.col0[slot, envs] = windows.col0[envs]
         self.visited[slot, envs] = windows.visited[envs]
         self.seen[slot, envs] = seen[envs]
-        draws = self.draws.at(seeds[envs], tick[envs])
+        draws = self.draws.at(seeds, tick)[envs]
         reach = delivered(self.model, draws, pose.x_m[envs], pose.y_m[envs])
         self.reaches[slot, envs] = reach
         # Own visits: receiver i is sender i, heard at once.

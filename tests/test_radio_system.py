@@ -1,0 +1,111 @@
+"""Limited radio links in the distributed system: lockstep equals ``wildfire eval --comm``,
+the run flies on when the ground station dies, and the radio stays under 1 KB/s an aircraft."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wildfire_belief.radio import CommModel
+from wildfire_learning.env import EnvConfig
+from wildfire_learning.evaluate import evaluate
+from wildfire_learning.vec_policies import make_vec_policy
+
+pytestmark = [pytest.mark.dds, pytest.mark.timeout(180)]
+WILDFIRE = str(Path(sys.executable).parent / "wildfire")
+RADIO_BYTES_PER_S_LIMIT = 1000.0
+"""The radio budget per aircraft (pose and visits together, 10 messages a second)."""
+
+
+def reference(policy: str, n: int, comm: str, seed: int, duration: float):  # type: ignore[no-untyped-def]
+    config = EnvConfig(
+        n_aircraft=n, shapes=("circular",), max_duration_s=duration, comm=CommModel.parse(comm)
+    )
+    return evaluate(make_vec_policy(policy), config, [seed], record=True).episodes[0]
+
+
+def test_lockstep_under_limited_links_equals_evaluate(
+    tmp_path: Path, dds_env: dict[str, str]
+) -> None:
+    from wildfire_msgs_py.radio_codec import radio_from_msg
+    from wildfire_msgs_py.system_codecs import stamped_state_from_msg
+    from wildfire_ros.bag import read_messages
+
+    comm, seed, n, duration = "range=300,loss=0.2,delay=2", 2000011, 3, 25.0
+    bag = tmp_path / "bag"
+    result = subprocess.run(
+        [WILDFIRE, "run", "--policy", "belief", "--aircraft", str(n), "--comm", comm,
+         "--seed", str(seed), "--duration", str(duration), "--fast", "--json",
+         "--record", str(bag), "--log-dir", str(tmp_path / "logs")],
+        env=dds_env, capture_output=True, text=True, timeout=150,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(result.stdout)
+    expected = reference("belief", n, comm, seed, duration)
+    assert summary["comm"] == comm
+    assert summary["score"] == expected.score
+    assert summary["decisions"] == expected.decisions
+    assert 0 < summary["radio_bytes_per_s_per_aircraft"] <= RADIO_BYTES_PER_S_LIMIT
+    # Every flight path equals the environment's, and the radio messages are in the bag.
+    states: dict[str, dict[int, np.ndarray]] = {}
+    radio_ticks: dict[int, list[int]] = {}
+    topics = [f"/uav{k}/state_stamped" for k in range(n)] + [f"/uav{k}/radio" for k in range(n)]
+    for message in read_messages(bag, topics=topics):
+        if message.topic.endswith("/radio"):
+            decoded = radio_from_msg(message.message)
+            radio_ticks.setdefault(decoded.aircraft, []).append(decoded.tick)
+            continue
+        stamp, vector = stamped_state_from_msg(message.message)
+        states.setdefault(message.topic, {})[stamp] = vector
+    for k in range(n):
+        recorded = states[f"/uav{k}/state_stamped"]
+        path = np.array([recorded[t][:2] for t in sorted(recorded)])
+        assert np.array_equal(path, expected.trajectory[:, k])
+        assert sorted(radio_ticks[k]) == list(range(1, expected.decisions + 1))
+
+
+def test_the_run_flies_on_when_the_ground_station_is_killed(
+    tmp_path: Path, dds_env: dict[str, str]
+) -> None:
+    comm, seed, n, duration = "range=300,loss=0.2", 2000012, 2, 60.0
+    logs = tmp_path / "logs"
+    run = subprocess.Popen(
+        [WILDFIRE, "run", "--policy", "rh", "--aircraft", str(n), "--comm", comm,
+         "--seed", str(seed), "--duration", str(duration), "--fast", "--json",
+         "--log-dir", str(logs)],
+        env=dds_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        # Kill the aggregator by its pid a second into the flight.
+        deadline = time.monotonic() + 90
+        fire_log = logs / "fire_simulator.log"
+        while "tick 0" not in (fire_log.read_text() if fire_log.exists() else ""):
+            assert time.monotonic() < deadline and run.poll() is None, "the run never started"
+            time.sleep(0.05)
+        time.sleep(1.0)
+        out = subprocess.run(
+            ["pgrep", "-f", "wildfire_belief.belief_aggregator_node"],
+            capture_output=True, text=True,
+        )  # fmt: skip
+        pids = [int(p) for p in out.stdout.split()]
+        assert pids, "no aggregator process"
+        for pid in pids:
+            subprocess.run(["kill", f"-{signal.SIGKILL.value}", str(pid)], check=False)
+        stdout, stderr = run.communicate(timeout=150)
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 0, stderr
+    summary = json.loads(stdout)
+    assert "belief_aggregator" in summary["lost_nodes"]
+    expected = reference("rh", n, comm, seed, duration)
+    assert summary["score"] == expected.score
+    # The ground station's score stopped mid-flight; the union's did not.
+    assert 0 < summary["aggregator_score"] < summary["score"]
