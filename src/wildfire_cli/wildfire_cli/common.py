@@ -110,7 +110,7 @@ def comm_model(text: str) -> CommModel:
         raise argparse.ArgumentTypeError(str(error)) from None
 
 
-def add_comm_argument(parser: argparse.ArgumentParser) -> None:
+def add_comm_argument(parser: argparse.ArgumentParser | argparse._ActionsContainer) -> None:
     """``--comm MODEL``: the radio links between the aircraft (default: ideal)."""
     parser.add_argument(
         "--comm",

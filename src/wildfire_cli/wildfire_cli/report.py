@@ -18,11 +18,13 @@ from wildfire_cli.common import (
     add_duration_argument,
     add_max_wind_argument,
     add_parallel_arguments,
+    comm_model,
     non_negative_int,
     positive_int,
     print_json,
 )
 from wildfire_cli.progress import progress_bar
+from wildfire_learning.comm_sweep import plot_sweep, sweep_markdown
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, EvaluationSummary, evaluate
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
@@ -49,6 +51,8 @@ from wildfire_learning.results_report import (
 from wildfire_learning.vec_policies import make_vec_policy
 
 DEFAULT_POLICIES = ("obs", "belief", "rh", "rh-paper", "random")
+SWEEP_FILES = ("comm_sweep.md", "comm_sweep.json", "comm_sweep.png")
+"""What ``--comm-sweep`` writes into the report folder."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -87,7 +91,17 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     )
     add_max_wind_argument(parser)
     add_duration_argument(parser)
-    add_comm_argument(parser)
+    links = parser.add_mutually_exclusive_group()
+    add_comm_argument(links)
+    links.add_argument(
+        "--comm-sweep",
+        nargs="+",
+        type=comm_model,
+        metavar="MODEL",
+        help="instead of the results table: every policy on the first --scenarios under each "
+        "radio model (e.g. ideal range=1000 range=500 range=300 range=150 none), into "
+        f"DIR/{SWEEP_FILES[0]}, DIR/{SWEEP_FILES[1]} and DIR/{SWEEP_FILES[2]}",
+    )
     parser.add_argument(
         "--out",
         type=Path,
@@ -159,7 +173,7 @@ def collect_results(
             identity = fingerprint(
                 policy, policy_file, seeds, base.max_wind, args.duration, base.comm
             )
-            path = evaluation_path(args.out, policy, scenario)
+            path = evaluation_path(args.out, policy, scenario, base.comm)
             stored = None if args.fresh else load_cached(path, identity)
             label = f"{policy_label(policy)} on {scenario.title}"
             if stored is None:
@@ -254,6 +268,50 @@ def run_curves(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_comm_sweep(
+    args: argparse.Namespace, scenario: Scenario, policies: list[str], base: EnvConfig
+) -> int:
+    """``--comm-sweep``: the policies on one scenario under each radio model."""
+    models = list(dict.fromkeys(args.comm_sweep))
+    out_dir = output_dir(args.out)
+    seeds = list(range(args.seed, args.seed + args.episodes))
+    results: dict[str, dict[str, dict[str, Any]]] = {}
+    evaluated: list[str] = []
+    for model in models:
+        by_scenario, flown = collect_results(
+            args, [scenario], policies, replace(base, comm=model), seeds
+        )
+        results[str(model)] = by_scenario[scenario.key]
+        evaluated += [f"{label} ({model})" for label in flown]
+    protocol = (
+        f"Seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} episodes, the same for every policy and "
+        f"radio model), random wind in [-{base.max_wind:g}, {base.max_wind:g}]^2, flights of "
+        f"at most {args.duration:g} s (docs/model.md, Radio links)."
+    )
+    markdown = sweep_markdown(results, models, policies, scenario.title, protocol)
+    md_path, json_path, png_path = (out_dir / name for name in SWEEP_FILES)
+    md_path.write_text(markdown)
+    plot_sweep(results, models, policies, png_path)
+    files = [str(md_path), str(json_path), str(png_path)]
+    summary = {
+        "protocol": protocol,
+        "scenario": scenario.key,
+        "seeds": seeds,
+        "comm": [str(m) for m in models],
+        "policies": policies,
+        "scores": {str(m): {p: results[str(m)][p]["score_mean"] for p in policies} for m in models},
+        "evaluated": evaluated,
+        "files": files,
+    }
+    json_path.write_text(json.dumps(summary, indent=1) + "\n")
+    if args.json:
+        print_json(summary)
+    else:
+        print(markdown)
+        print("wrote " + ", ".join(files))
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     if args.curves:
         return run_curves(args)
@@ -266,6 +324,8 @@ def run(args: argparse.Namespace) -> int:
     base.validate()
     seeds = list(range(args.seed, args.seed + args.episodes))
 
+    if args.comm_sweep:
+        return run_comm_sweep(args, scenarios[0], policies, base)
     results, evaluated = collect_results(args, scenarios, policies, base, seeds)
     protocol = (
         f"Seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} episodes, the same for every policy), "

@@ -134,8 +134,12 @@ def fingerprint(
     return identity
 
 
-def evaluation_path(out_dir: Path, policy: str, scenario: Scenario) -> Path:
-    return out_dir / "evaluations" / f"{policy_id(policy)}_{scenario.key}.json"
+def evaluation_path(
+    out_dir: Path, policy: str, scenario: Scenario, comm: CommModel = IDEAL
+) -> Path:
+    """Where an evaluation is stored: ``<policy>_<scenario>[_comm-<model>].json``."""
+    suffix = "" if comm.ideal else "_comm-" + str(comm).replace(",", "_").replace("=", "")
+    return out_dir / "evaluations" / f"{policy_id(policy)}_{scenario.key}{suffix}.json"
 
 
 def load_cached(path: Path, identity: dict[str, Any]) -> dict[str, Any] | None:
