@@ -136,17 +136,17 @@ def test_link_draws_depend_on_seed_link_and_tick_only() -> None:
 
 
 def test_messages_arrive_within_range_unless_lost_and_never_to_the_sender() -> None:
-    x = np.array([[0.0, 250.0, 500.0]])
+    x, tick = np.array([[0.0, 250.0, 500.0]]), np.array([7])
     y = np.zeros((1, 3))
     draws = np.full((1, 3, 3), 0.5)
     draws[0, 0, 1] = 0.1  # the 0 -> 1 message is lost at loss 0.2
-    reach = delivered(CommModel.parse("range=300,loss=0.2"), draws, x, y)[0]
+    reach = delivered(CommModel.parse("range=300,loss=0.2"), draws, x, y, tick)[0]
     assert not reach[0, 1] and reach[1, 0]
     assert reach[1, 2] and reach[2, 1]  # 250 m apart
     assert not reach[0, 2] and not reach[2, 0]  # 500 m apart: out of range
     assert not reach.diagonal().any()
-    assert not delivered(CommModel.parse("none"), draws, x, y).any()
-    everything = delivered(CommModel.parse("range=1e6"), draws, x, y)[0]
+    assert not delivered(CommModel.parse("none"), draws, x, y, tick).any()
+    everything = delivered(CommModel.parse("range=1e6"), draws, x, y, tick)[0]
     assert np.array_equal(everything, ~np.eye(3, dtype=bool))
 
 
@@ -280,3 +280,53 @@ def test_radio_messages_that_lie_are_dropped_with_their_reason() -> None:
         with pytest.raises(RejectedMessage) as error:
             window_of(lie)
         assert error.value.reason is DropReason.MALFORMED
+
+
+def test_after_an_outage_the_catch_up_restores_the_shared_belief_in_every_replica() -> None:
+    """Perfect links but a 6 s outage: each replica misses the other's visits, then the
+    digest-and-reply exchange brings both back to the union of every visit, bit for bit."""
+    ideal, _ = run_env("ideal", [3, 4], 140)
+    cut, _ = run_env("range=1e9,outage=2-8", [3, 4], 140)
+    assert cut.radio is not None
+    union_age = ideal.belief.age_s()
+    replicas = cut.radio.replicas
+    for k in range(2):
+        assert np.array_equal(replicas.burning[:, k], ideal.belief.burning)
+        assert np.array_equal(replicas.age_s()[:, k], union_age)
+    # Stopped just after the outage, before any reply is heard, they differ.
+    early, _ = run_env("range=1e9,outage=2-8", [3, 4], 81)
+    assert early.radio is not None
+    assert not np.array_equal(early.radio.replicas.key[:, 0], early.radio.replicas.key[:, 1])
+
+
+def test_catch_up_sections_read_back_and_a_reply_that_lies_is_malformed() -> None:
+    from wildfire_belief.catch_up import digest_of, make_reply
+    from wildfire_msgs_py.errors import MessageFieldError
+    from wildfire_msgs_py.radio_codec import Digest, RadioMessage, radio_from_bytes, radio_to_bytes
+
+    rng = np.random.default_rng(3)
+    replica = BeliefReplicas(1, 1)
+    cells = rng.choice(10_000, size=700, replace=False)
+    replica.merge(
+        np.zeros(700, np.int64), np.zeros(700, np.int64), cells,
+        visit_key(rng.integers(1, 400, size=700), rng.integers(0, 3, size=700)),
+        rng.random(700) < 0.5,
+    )  # fmt: skip
+    key, burning = replica.key[0, 0], replica.burning[0, 0]
+    reply = make_reply(2, key, burning, np.zeros(100, dtype=np.uint16))
+    assert reply.cells.size == 700
+    digest = Digest(0, digest_of(key))
+    message = RadioMessage(
+        400, 1, 1.0, 2.0, 0.5, 0, 0, 0, np.zeros(3, np.uint8), (digest,), (reply,)
+    )
+    data = radio_to_bytes(message)
+    assert len(data) < 700 * 7  # compressed
+    decoded = radio_from_bytes(data)
+    assert decoded.digests[0].target == 0
+    assert np.array_equal(decoded.digests[0].block_ticks, digest.block_ticks)
+    back = decoded.replies[0]
+    for field in ("cells", "ticks", "aircraft", "burning"):
+        assert np.array_equal(getattr(back, field), getattr(reply, field))
+    assert np.array_equal(decoded.bits, message.bits)
+    with pytest.raises(MessageFieldError):
+        radio_from_bytes(data[:-5] + b"\x00" * 5)

@@ -38,7 +38,8 @@ def test_lockstep_under_limited_links_equals_evaluate(
     from wildfire_msgs_py.system_codecs import stamped_state_from_msg
     from wildfire_ros.bag import read_messages
 
-    comm, seed, n, duration = "range=300,loss=0.2,delay=2", 2000011, 3, 25.0
+    # An outage mid-flight: the catch-up exchange runs in the system too.
+    comm, seed, n, duration = "range=300,loss=0.2,delay=2,outage=8-14", 2000011, 3, 25.0
     bag = tmp_path / "bag"
     result = subprocess.run(
         [WILDFIRE, "run", "--policy", "belief", "--aircraft", str(n), "--comm", comm,
@@ -53,6 +54,9 @@ def test_lockstep_under_limited_links_equals_evaluate(
     assert summary["score"] == expected.score
     assert summary["decisions"] == expected.decisions
     assert 0 < summary["radio_bytes_per_s_per_aircraft"] <= RADIO_BYTES_PER_S_LIMIT
+    links = summary["radio_links"]
+    assert all(links[f"uav{k}"]["catch_ups"] >= 1 for k in range(n))
+    assert all(0 < links[f"uav{k}"]["convergence_s_max"] < 2.0 for k in range(n))
     # Every flight path equals the environment's, and the radio messages are in the bag.
     states: dict[str, dict[int, np.ndarray]] = {}
     radio_ticks: dict[int, list[int]] = {}

@@ -216,7 +216,9 @@ class AgentNode(Node):
                 self.radio_pub.publish(radio_codec.radio_to_msg(out.message))
             elif isinstance(out, DeadlineOut):
                 inputs = self.input_guard.status(f"{self.name_tag}/agent", self.name_tag)
-                message = codecs.diagnostics_to_msg([out.status, inputs], out.stamp)
+                radio = self.protocol.radio_status()
+                statuses = [out.status, inputs] + ([radio] if radio is not None else [])
+                message = codecs.diagnostics_to_msg(statuses, out.stamp)
                 self.diagnostics_pub.publish(message)
             else:
                 self.visit_pub.publish(codecs.visit_to_msg(out.window, out.stamp))

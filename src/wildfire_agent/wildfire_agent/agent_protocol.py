@@ -41,7 +41,7 @@ from wildfire_agent.receding_horizon import RecedingHorizonConfig
 from wildfire_belief.radio import CommError, CommModel
 from wildfire_belief.visits import visit_windows, window_values
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
-from wildfire_msgs_py.contract import AIRCRAFT_PREFIX, DEADLINE_STATUS
+from wildfire_msgs_py.contract import AIRCRAFT_PREFIX, DEADLINE_STATUS, RADIO_STATUS
 from wildfire_msgs_py.input_guard import (
     DropReason,
     RejectedMessage,
@@ -502,6 +502,19 @@ class AgentProtocol:
         self.state = dynamics.step(self.state, np.array([action], dtype=np.int64))
         bank_rad = float(self.state.bank_rad[0])
         return StateOut(self.stamp(tick), state_vector(self.state), bank_rad, int(action))
+
+    def radio_status(self) -> NodeStatus | None:
+        """The radio links' status (limited links): catch-ups and how long they took."""
+        if self.radio is None:
+            return None
+        values = self.radio.catch_ups.summary()
+        return NodeStatus(
+            f"{self.name_tag}/agent: {RADIO_STATUS}",
+            self.name_tag,
+            "OK",
+            f"{values['catch_ups']:.0f} catch-ups, longest {values['convergence_s_max']:.1f} s",
+            dict(values),
+        )
 
     def deadline(self, tick: int, force: bool = False) -> list[Output]:
         """Deadline statistics once a second of flight (every 10 decisions), and at the end."""

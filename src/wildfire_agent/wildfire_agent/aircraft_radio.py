@@ -4,11 +4,13 @@ Under a limited radio model (``wildfire_belief.radio``) an agent decides on its 
 replica and on what it heard of its peers, as the environment's :class:`Radio` does for every
 aircraft at once; this class does it for aircraft ``k`` with the same functions, tick by tick:
 
-1. at tick ``t`` (``t >= 1``) the aircraft sends :meth:`AircraftRadio.message`: its pose and
-   the burning bits of the cells it visits;
+1. at tick ``t`` (``t >= 1``) the aircraft sends :meth:`AircraftRadio.message`: its pose, the
+   burning bits of the cells it visits, and the catch-up digests and replies it owes
+   (``wildfire_belief.catch_up``, composed from its replica as it stands);
 2. once every peer's message of tick ``t`` is in, :meth:`AircraftRadio.receive` merges its own
    visit, decides with the links' draws of tick ``t`` which peer messages reach it (from the
-   positions at ``t``), holds those for ``delay`` ticks, and merges the ones due now;
+   positions at ``t``), holds those for ``delay`` ticks, and hears the ones due now: their
+   visits, poses, digests and replies; one that ends a gap asks for a catch-up;
 3. the decision reads :meth:`team` (peers heard, dead-reckoned) and :meth:`belief`.
 
 Every peer's message of a tick is received even when the model drops it: the model decides
@@ -24,12 +26,20 @@ import numpy as np
 
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.heard_poses import HeardPoses
+from wildfire_belief.catch_up import CatchUpQueue, link_returned, reply_keys
 from wildfire_belief.radio import CommModel, LinkDraws, delivered
-from wildfire_belief.replicas import BeliefReplicas, visit_key
+from wildfire_belief.replicas import KEY_AIRCRAFT, BeliefReplicas, visit_key
 from wildfire_belief.visits import visit_windows
 from wildfire_msgs_py.codecs import VisitWindow
 from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
-from wildfire_msgs_py.radio_codec import RadioMessage, pack_burning
+from wildfire_msgs_py.radio_codec import (
+    HEADER,
+    Digest,
+    RadioMessage,
+    Reply,
+    pack_burning,
+    radio_to_bytes,
+)
 from wildfire_sim.grid import GRID_SIZE
 
 
@@ -37,7 +47,8 @@ def window_of(message: RadioMessage) -> VisitWindow:
     """The visit window a radio message reports, checked against its pose.
 
     The visited cells follow from the position; a message whose origin or number of bits
-    does not fit them is refused (malformed), so it never enters a replica.
+    does not fit them is refused (malformed), as is a catch-up reply with cells off the map,
+    visits of no aircraft or visits after the message: none of it enters a replica.
     """
     windows = visit_windows(np.array([message.x_m]), np.array([message.y_m]))
     row0, col0 = int(windows.row0[0]), int(windows.col0[0])
@@ -53,6 +64,13 @@ def window_of(message: RadioMessage) -> VisitWindow:
         raise RejectedMessage(
             DropReason.MALFORMED, f"{message.bits.size} bytes of bits for {count} visited cells"
         )
+    for reply in message.replies:
+        if reply.cells.size and int(reply.cells.max()) >= GRID_SIZE * GRID_SIZE:
+            raise RejectedMessage(DropReason.OUT_OF_RANGE, "catch-up cell off the map")
+        if reply.aircraft.size and int(reply.aircraft.max()) >= KEY_AIRCRAFT:
+            raise RejectedMessage(DropReason.OUT_OF_RANGE, "catch-up visit of no aircraft")
+        if reply.ticks.size and int(reply.ticks.max()) > message.tick:
+            raise RejectedMessage(DropReason.OUT_OF_RANGE, "catch-up visit after the message")
     burning = np.zeros_like(visited)
     burning[visited] = message.burning(count)
     return VisitWindow(row0, col0, visited, burning)
@@ -63,6 +81,45 @@ def window_cells(window: VisitWindow) -> tuple[np.ndarray, np.ndarray]:
     rows, cols = np.nonzero(window.visited)
     cell = (rows + window.row0) * GRID_SIZE + cols + window.col0
     return cell, np.asarray(window.burning, bool)[rows, cols]
+
+
+class CatchUpLog:
+    """What an aircraft's catch-ups took: from a link's return to the reply merged.
+
+    A catch-up with peer ``j`` starts when a message of ``j`` ends a gap (the tick it is
+    heard) and ends when ``j``'s reply is merged; its length in ticks is the replicas'
+    convergence time on that link (whatever loss delays it).
+    """
+
+    def __init__(self) -> None:
+        self.open: dict[int, int] = {}
+        """Peer -> tick its link returned, while the reply is awaited."""
+        self.done: list[tuple[int, int, int, int]] = []
+        """(peer, returned tick, merged tick, cells merged) of every finished catch-up."""
+        self.bytes_sent = 0
+
+    def returned(self, peer: int, tick: int) -> None:
+        self.open.setdefault(peer, tick)
+
+    def sent(self, message: RadioMessage) -> None:
+        """Count the catch-up bytes of a message (all but the header and the visit bits)."""
+        self.bytes_sent += len(radio_to_bytes(message)) - HEADER.size - message.bits.size
+
+    def merged(self, peer: int, tick: int, cells: int) -> None:
+        start = self.open.pop(peer, tick)
+        self.done.append((peer, start, tick, cells))
+
+    def summary(self) -> dict[str, float]:
+        """Counts and convergence times (s) for the agent's radio status."""
+        ticks = [merged - start for _, start, merged, _ in self.done]
+        return {
+            "catch_ups": float(len(self.done)),
+            "catch_ups_open": float(len(self.open)),
+            "catch_up_cells": float(sum(cells for *_, cells in self.done)),
+            "catch_up_bytes_sent": float(self.bytes_sent),
+            "convergence_s_max": max(ticks, default=0) / 10.0,
+            "convergence_s_mean": float(np.mean(ticks)) / 10.0 if ticks else 0.0,
+        }
 
 
 class AircraftRadio:
@@ -80,6 +137,8 @@ class AircraftRadio:
         """Messages that will be heard, by the tick they are heard at."""
         self.tick = 0
         """The last tick received."""
+        self.queue = CatchUpQueue()
+        self.catch_ups = CatchUpLog()
 
     def start(self, team: AircraftState) -> None:
         """The team's start poses (fields (n,)): the mission plan everybody knows."""
@@ -87,7 +146,12 @@ class AircraftRadio:
 
     def message(self, tick: int, state: AircraftState, window: VisitWindow) -> RadioMessage:
         """What the aircraft at ``state`` (fields (1,)) sends at ``tick`` of its ``window``."""
-        return RadioMessage(
+        digests: tuple[Digest, ...] = ()
+        replies: tuple[Reply, ...] = ()
+        if self.queue.asks or self.queue.answers:
+            replica = (self.replica.key[0, 0], self.replica.burning[0, 0])
+            digests, replies = self.queue.compose(*replica)
+        message = RadioMessage(
             tick,
             self.k,
             float(state.x_m[0]),
@@ -97,7 +161,12 @@ class AircraftRadio:
             window.row0,
             window.col0,
             pack_burning(np.asarray(window.burning, bool)[np.asarray(window.visited, bool)]),
+            digests,
+            replies,
         )
+        if digests or replies:
+            self.catch_ups.sent(message)
+        return message
 
     def receive(
         self,
@@ -115,12 +184,26 @@ class AircraftRadio:
         order = sorted(team)
         x = np.array([[team[j][0] for j in order]])
         y = np.array([[team[j][1] for j in order]])
-        reach = delivered(self.model, self.draws.at(np.array([self.seed]), np.array([tick])), x, y)
+        draws = self.draws.at(np.array([self.seed]), np.array([tick]))
+        reach = delivered(self.model, draws, x, y, np.array([tick]))
         for j, received in peers.items():
             if reach[0, j, self.k]:
                 self.in_flight.setdefault(tick + self.model.delay, []).append(received)
         for message, heard_window in self.in_flight.pop(tick, []):
             self._merge(heard_window, message.tick, message.aircraft)
+            j = message.aircraft
+            if link_returned(self.heard.tick[0, 0, j], message.tick):
+                self.queue.asks.add(j)
+                self.catch_ups.returned(j, tick)
+            for digest in message.digests:
+                if digest.target == self.k:
+                    self.queue.answers[j] = digest.block_ticks
+            for reply in message.replies:
+                if reply.target == self.k:
+                    zero = np.zeros(reply.cells.size, dtype=np.int64)
+                    cells = reply.cells.astype(np.int64)
+                    self.replica.merge(zero, zero, cells, reply_keys(reply), reply.burning)
+                    self.catch_ups.merged(j, tick, reply.cells.size)
             pose = AircraftState(
                 np.array([message.x_m]),
                 np.array([message.y_m]),
@@ -146,4 +229,4 @@ class AircraftRadio:
         return self.replica.burning[0, 0], self.replica.age_s()[0, 0]
 
 
-__all__ = ["AircraftRadio", "window_cells", "window_of"]
+__all__ = ["AircraftRadio", "CatchUpLog", "window_cells", "window_of"]

@@ -8,7 +8,9 @@ decided by a :class:`CommModel`, with no state beyond the episode seed:
 * ``none``: no message ever arrives;
 * ``range=R,loss=P,delay=D``: the message arrives at tick ``t + D`` when the two aircraft are
   at most ``R`` metres apart at tick ``t`` and the link's draw for that tick is at least
-  ``P`` (independent loss per message and link).
+  ``P`` (independent loss per message and link);
+* ``outage=A-B`` (with any of the above): no message sent from ``A`` s to ``B`` s of flight
+  arrives (a partition of the whole team, e.g. to measure how replicas catch up).
 
 The draws are seeded per link, ``generator(seed, RADIO, j, i, block)`` for blocks of
 ``DRAW_BLOCK`` ticks, and addressed by tick: the environment (a batch of episodes) and an
@@ -22,13 +24,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wildfire_belief.belief import TICKS_PER_S
 from wildfire_sim.seeding import Stream, generator
 
 DRAW_BLOCK = 1024
 """Ticks of loss draws generated at a time per link (counter-addressed, so any order works)."""
 MAX_DELAY_DECISIONS = 600
 """Longest delay a model may have (60 s): messages in flight are buffered that long."""
-COMM_KEYS = ("range", "loss", "delay")
+COMM_KEYS = ("range", "loss", "delay", "outage")
 """Keys of a radio model's ``key=value`` description."""
 
 
@@ -48,15 +51,18 @@ class CommModel:
     """Decisions between sending and hearing a message."""
     links: bool = True
     """False for ``none``: nothing is ever heard."""
+    outage_s: tuple[float, float] | None = None
+    """Flight seconds [start, end) during which no message arrives."""
 
     @property
     def ideal(self) -> bool:
         """Every message arrives at once: the team shares one belief, as in the paper."""
-        return self.links and self.range_m == math.inf and self.loss == 0.0 and self.delay == 0
+        perfect = self.range_m == math.inf and self.loss == 0.0 and self.delay == 0
+        return self.links and perfect and self.outage_s is None
 
     @classmethod
     def parse(cls, text: str) -> CommModel:
-        """``ideal``, ``none`` or ``range=R[,loss=P][,delay=D]`` (any of the three keys)."""
+        """``ideal``, ``none`` or ``range=R[,loss=P][,delay=D][,outage=A-B]`` (any of the keys)."""
         text = text.strip()
         if text == "ideal":
             return cls()
@@ -69,7 +75,8 @@ class CommModel:
             if not sep or key not in COMM_KEYS:
                 raise CommError(
                     f"comm {text!r}: expected ideal, none or key=value items with keys "
-                    f"{', '.join(COMM_KEYS)} (e.g. range=300,loss=0.2,delay=2), got {item!r}"
+                    f"{', '.join(COMM_KEYS)} (e.g. range=300,loss=0.2,delay=2,outage=60-90), "
+                    f"got {item!r}"
                 )
             if key in values:
                 raise CommError(f"comm {text!r}: {key} given twice")
@@ -78,11 +85,17 @@ class CommModel:
             range_m = float(values.get("range", "inf"))
             loss = float(values.get("loss", "0"))
             delay = int(values.get("delay", "0"))
+            outage = None
+            if "outage" in values:
+                start, _, end = values["outage"].partition("-")
+                outage = (float(start), float(end))
         except ValueError:
             raise CommError(
-                f"comm {text!r}: expected range in metres, loss a probability and delay "
-                "a whole number of decisions"
+                f"comm {text!r}: expected range in metres, loss a probability, delay "
+                "a whole number of decisions and outage START-END in seconds"
             ) from None
+        if outage is not None and not 0.0 <= outage[0] < outage[1]:
+            raise CommError(f"comm {text!r}: outage expected 0 <= START < END seconds")
         if not range_m >= 0.0:
             raise CommError(f"comm {text!r}: range expected >= 0 m, got {range_m}")
         if not 0.0 <= loss <= 1.0:
@@ -91,7 +104,7 @@ class CommModel:
             raise CommError(
                 f"comm {text!r}: delay expected 0..{MAX_DELAY_DECISIONS} decisions, got {delay}"
             )
-        return cls(range_m=range_m, loss=loss, delay=delay)
+        return cls(range_m=range_m, loss=loss, delay=delay, outage_s=outage)
 
     def __str__(self) -> str:
         """The canonical description, which :meth:`parse` reads back."""
@@ -106,6 +119,8 @@ class CommModel:
             items.append(f"loss={self.loss:g}")
         if self.delay:
             items.append(f"delay={self.delay}")
+        if self.outage_s is not None:
+            items.append(f"outage={self.outage_s[0]:g}-{self.outage_s[1]:g}")
         return ",".join(items)
 
 
@@ -147,12 +162,15 @@ class LinkDraws:
         return self.draws[env, :, :, ticks % DRAW_BLOCK]
 
 
-def delivered(model: CommModel, draws: np.ndarray, x_m: np.ndarray, y_m: np.ndarray) -> np.ndarray:
+def delivered(
+    model: CommModel, draws: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, tick: np.ndarray
+) -> np.ndarray:
     """Which messages of one tick arrive: (..., N, N) bool ``[sender, receiver]``.
 
     ``draws`` are the links' draws of the tick (:class:`LinkDraws`), ``x_m``/``y_m`` (..., N)
-    the senders' and receivers' positions when the messages were sent. Nobody hears itself
-    over the radio (its own visits are merged directly).
+    the senders' and receivers' positions when the messages were sent, ``tick`` (...) the
+    tick they were sent at. Nobody hears itself over the radio (its own visits are merged
+    directly).
     """
     n = x_m.shape[-1]
     others = ~np.eye(n, dtype=bool)
@@ -161,7 +179,12 @@ def delivered(model: CommModel, draws: np.ndarray, x_m: np.ndarray, y_m: np.ndar
     dx = x_m[..., :, None] - x_m[..., None, :]
     dy = y_m[..., :, None] - y_m[..., None, :]
     in_range = np.hypot(dx, dy) <= model.range_m
-    return in_range & (draws >= model.loss) & others
+    heard = in_range & (draws >= model.loss) & others
+    if model.outage_s is not None:
+        start, end = model.outage_s
+        seconds = np.asarray(tick)[..., None, None] / TICKS_PER_S
+        heard &= ~((seconds >= start) & (seconds < end))
+    return heard
 
 
 __all__ = [

@@ -94,6 +94,7 @@ class RunMonitorNode(Node):
             self.union = BeliefAggregator(initial_fire(seed, shape).burning[0])
             self.visits = [TickInbox(TICK_NS) for _ in range(n_aircraft)]
         self.deadlines: dict[int, dict[str, float]] = {}
+        self.radio_links: dict[int, dict[str, float]] = {}
         self.input_drops: dict[str, dict[str, float]] = {}
         self.acked_tick = -1
         # Monotonic receipt times of each node's accepted messages (its status, belief or
@@ -223,6 +224,10 @@ class RunMonitorNode(Node):
             if k is not None and status.name.endswith(contract.DEADLINE_STATUS):
                 if numbers.get("decisions", -1) >= self.deadlines.get(k, {}).get("decisions", 0):
                     self.deadlines[k] = numbers
+            elif k is not None and status.name.endswith(contract.RADIO_STATUS):
+                # Counts only grow: an older (replayed) status never replaces a newer one.
+                if numbers.get("catch_ups", -1) >= self.radio_links.get(k, {}).get("catch_ups", 0):
+                    self.radio_links[k] = numbers
             elif status.name.endswith(INPUT_STATUS):
                 node = status.name.removesuffix(f": {INPUT_STATUS}")
                 if numbers.get("dropped", -1) >= self.input_drops.get(node, {}).get("dropped", 0):

@@ -282,6 +282,8 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         result["radio_bytes_per_message"] = float(
             monitor.radio_bytes.sum() / max(int(monitor.radio_messages.sum()), 1)
         )
+        if monitor.radio_links:
+            result["radio_links"] = {f"uav{k}": v for k, v in sorted(monitor.radio_links.items())}
     if monitor.fire is not None and belief is not None:
         result["belief_iou"] = float(belief_iou(belief[None], monitor.fire[None])[0])
         if ages is not None:

@@ -56,7 +56,6 @@ from wildfire_agent.approaches import (
     sensor_images,
 )
 from wildfire_agent.dynamics import AircraftState
-from wildfire_agent.heard_poses import HeardPoses
 from wildfire_agent.rewards import (
     FireFieldMaps,
     ObservationRewardWeights,
@@ -65,16 +64,10 @@ from wildfire_agent.rewards import (
     observation_rewards,
 )
 from wildfire_belief.belief import SharedBelief
-from wildfire_belief.radio import IDEAL, CommModel, LinkDraws, delivered
-from wildfire_belief.replicas import BeliefReplicas, visit_key
-from wildfire_belief.visits import (
-    VISIT_WINDOW,
-    VisitWindows,
-    visit_windows,
-    visited_cells,
-    window_values,
-)
+from wildfire_belief.radio import IDEAL, CommModel
+from wildfire_belief.visits import visit_windows, visited_cells, window_values
 from wildfire_learning.errors import LearningError
+from wildfire_learning.team_radio import TeamRadio
 from wildfire_sim.episode import (
     DECISIONS_PER_FIRE_STEP,
     EPISODE_DEFAULTS,
@@ -213,7 +206,7 @@ class WildfireVecEnv:
         # C-contiguous copy of the burning grids, refreshed when fires step: sensors and
         # visits read it every decision, and the fire model stores its grids env-last.
         self.truth = np.ascontiguousarray(self.fire.burning)
-        self.radio = None if config.comm.ideal else Radio(config.comm, num_envs, n)
+        self.radio = None if config.comm.ideal else TeamRadio(config.comm, num_envs, n)
 
     # ------------------------------------------------------------------ reset
     def reset(
@@ -361,99 +354,6 @@ class WildfireVecEnv:
         return {"image": images, "state": self.pair_states()}
 
 
-class Radio:
-    """The radio links of a batch of episodes: messages in flight, replicas, heard poses.
-
-    Messages sent at tick ``t`` wait in a ring of ``delay + 1`` slots and are heard at
-    ``t + delay`` by the receivers the model lets them reach (decided when sent, from the
-    positions then). Each aircraft merges its own visits at once.
-    """
-
-    def __init__(self, model: CommModel, num_envs: int, n: int) -> None:
-        self.model = model
-        self.n = n
-        self.replicas = BeliefReplicas(num_envs, n)
-        self.heard = HeardPoses(num_envs, n, n)
-        self.draws = LinkDraws(num_envs, n)
-        slots, shape = model.delay + 1, (model.delay + 1, num_envs, n)
-        self.sent_tick = np.full((slots, num_envs), -1, dtype=np.int64)
-        self.pose = AircraftState(
-            np.zeros(shape), np.zeros(shape), np.zeros(shape), np.zeros(shape, dtype=np.int64)
-        )
-        self.row0 = np.zeros(shape, dtype=np.int64)
-        self.col0 = np.zeros(shape, dtype=np.int64)
-        window = (*shape, VISIT_WINDOW, VISIT_WINDOW)
-        self.visited = np.zeros(window, dtype=bool)
-        self.seen = np.zeros(window, dtype=bool)
-        self.reaches = np.zeros((*shape, n), dtype=bool)
-        """[slot, e, sender, receiver]: the message will be heard."""
-
-    def reset(self, env_ids: np.ndarray, believed_burning: np.ndarray) -> None:
-        self.replicas.reset(env_ids, believed_burning)
-        self.sent_tick[:, env_ids] = -1
-
-    def send(
-        self,
-        active: np.ndarray,
-        tick: np.ndarray,
-        seeds: np.ndarray,
-        pose: AircraftState,
-        windows: VisitWindows,
-        seen: np.ndarray,
-    ) -> None:
-        """Every aircraft of the ``active`` episodes sends its tick-``tick`` message; merge
-        its own visit and the messages heard at this tick into the replicas."""
-        envs = np.flatnonzero(active)
-        self.replicas.tick(envs)
-        slot = tick[envs] % (self.model.delay + 1)
-        self.sent_tick[slot, envs] = tick[envs]
-        for ring, now in zip(self.pose, pose, strict=True):
-            ring[slot, envs] = now[envs]
-        self.row0[slot, envs] = windows.row0[envs]
-        self.col0[slot, envs] = windows.col0[envs]
-        self.visited[slot, envs] = windows.visited[envs]
-        self.seen[slot, envs] = seen[envs]
-        draws = self.draws.at(seeds, tick)[envs]
-        reach = delivered(self.model, draws, pose.x_m[envs], pose.y_m[envs])
-        self.reaches[slot, envs] = reach
-        # Own visits: receiver i is sender i, heard at once.
-        own = np.zeros((len(envs), self.n, self.n), dtype=bool)
-        own[:, np.arange(self.n), np.arange(self.n)] = True
-        self.merge(envs, slot, own)
-        # The messages of tick - delay (the same slot when there is no delay).
-        sent = tick[envs] - self.model.delay
-        old = sent % (self.model.delay + 1)
-        due = self.sent_tick[old, envs] == sent
-        heard = self.reaches[old, envs] & due[:, None, None]
-        self.merge(envs, old, heard)
-        e, j, i = np.nonzero(heard)
-        self.heard.hear(
-            envs[e], i, j, sent[e], AircraftState(*(f[old[e], envs[e], j] for f in self.pose))
-        )
-
-    def merge(self, envs: np.ndarray, slot: np.ndarray, heard: np.ndarray) -> None:
-        """Merge the visits of messages ``heard[e, sender, receiver]`` in ring ``slot[e]``."""
-        e, j, i = np.nonzero(heard)
-        s, env = slot[e], envs[e]
-        m, a, b = np.nonzero(self.visited[s, env, j])
-        source = (s[m], env[m], j[m])
-        cell = (self.row0[source] + a) * GRID_SIZE + self.col0[source] + b
-        key = visit_key(self.sent_tick[s[m], env[m]], j[m])
-        self.replicas.merge(env[m], i[m], cell, key, self.seen[(*source, a, b)])
-
-    def belief_images(self, pose: AircraftState) -> np.ndarray:
-        """Each aircraft's ego image of its own replica, (E, N, 2, 100, 100)."""
-        replicas = self.replicas
-        e, n = replicas.burning.shape[:2]
-        flat = AircraftState(*(f.reshape(e * n, 1) for f in pose))
-        images = belief_images(
-            replicas.burning.reshape(e * n, GRID_SIZE, GRID_SIZE),
-            replicas.age_s().reshape(e * n, GRID_SIZE, GRID_SIZE),
-            flat,
-        )
-        return images.reshape(e, n, *images.shape[2:])
-
-
 class VecPolicy(Protocol):
     """A vector policy: chooses the actions of every aircraft of every episode of a
     :class:`WildfireVecEnv` (the implementations are in ``wildfire_learning.vec_policies``)."""
@@ -470,7 +370,6 @@ class VecPolicy(Protocol):
 
 __all__ = [
     "EnvConfig",
-    "Radio",
     "Scenario",
     "StepResult",
     "VecPolicy",

@@ -178,6 +178,8 @@ STATE = TopicSpec(
 #: Task name of an agent's status on ``/diagnostics``: ``uavK/agent: decision deadlines``,
 #: hardware id ``uavK``.
 DEADLINE_STATUS = "decision deadlines"
+#: Task name of an agent's radio status under limited links: ``uavK/agent: radio links``.
+RADIO_STATUS = "radio links"
 DIAGNOSTICS = TopicSpec(
     "/diagnostics",
     "diagnostic_msgs/msg/DiagnosticArray",
@@ -358,6 +360,7 @@ __all__ = [
     "MAP_FRAME",
     "ODOM",
     "RADIO",
+    "RADIO_STATUS",
     "SCORE",
     "STATE",
     "STATE_STAMPED",

@@ -1,0 +1,113 @@
+"""Catch-up: when a radio link returns, the two replicas exchange what the other missed.
+
+See docs/model.md, Radio links. A replica that hears a peer again after a gap of more than
+``CATCH_UP_GAP_TICKS`` (it missed at least that many of the peer's messages, or never heard
+it) asks for what it missed:
+
+1. its next radio message carries a **digest** for that peer: per block of 10 x 10 cells,
+   the oldest of the block's last visits in its replica (:func:`digest_of`);
+2. the peer, once it hears the digest, answers in its next message with the **missing
+   visits**: every cell of its own replica whose visit is newer than the digest's tick for
+   the cell's block, with its key (:func:`missing_visits`). Every cell the asker holds older
+   than the peer is among them (its tick is at least its block's oldest), so after the merge
+   the asker's replica holds everything the peer's held when it answered;
+3. the asker merges them like any visit (last writer wins), once it hears the reply.
+
+Digest and reply ride in the ordinary radio messages, under the same radio model (a lost one
+is not retried: the next return asks again). Messages are composed from the replica as it
+stands before the tick's own merges, in the environment and in an agent alike.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wildfire_belief.replicas import KEY_AIRCRAFT, visit_key
+from wildfire_msgs_py.radio_codec import MAX_SECTIONS, Digest, Reply
+
+CATCH_UP_GAP_TICKS = 10
+"""A link returns when the heard message follows the previous heard one by more than 1 s."""
+BLOCK = 10
+"""Side in cells of a digest block."""
+DIGEST_TICK_CAP = 2**16 - 1
+"""Digest ticks are 16 bits: a later tick reads as the cap, which only adds to the reply."""
+
+
+def link_returned(previous_tick: np.ndarray | int, sent_tick: np.ndarray | int) -> np.ndarray:
+    """Whether a message sent at ``sent_tick`` ends a gap since ``previous_tick`` (heard)."""
+    return np.asarray(sent_tick) - np.asarray(previous_tick) > CATCH_UP_GAP_TICKS
+
+
+def digest_of(key: np.ndarray) -> np.ndarray:
+    """(100,) uint16: per block of a replica's (H, W) keys, the oldest last-visit tick of
+    its cells (0 while a cell was never visited)."""
+    size = key.shape[-1]
+    ticks = np.clip(key // KEY_AIRCRAFT, 0, DIGEST_TICK_CAP)
+    blocks = ticks.reshape(size // BLOCK, BLOCK, size // BLOCK, BLOCK).min(axis=(1, 3))
+    return blocks.reshape(-1).astype(np.uint16)
+
+
+def missing_visits(
+    key: np.ndarray, burning: np.ndarray, digest: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cells of a replica (H, W) newer than ``digest`` says the asker holds: flat cell
+    indices, their visit keys and burning values (in cell order)."""
+    size = key.shape[-1]
+    per_cell = np.repeat(
+        np.repeat(digest.reshape(size // BLOCK, size // BLOCK), BLOCK, 0), BLOCK, 1
+    )
+    newer = np.flatnonzero(key.reshape(-1) // KEY_AIRCRAFT > per_cell.reshape(-1))
+    return newer, key.reshape(-1)[newer], burning.reshape(-1)[newer]
+
+
+def make_reply(target: int, key: np.ndarray, burning: np.ndarray, digest: np.ndarray) -> Reply:
+    """The reply to ``target``'s digest from a replica's (H, W) keys and burning values."""
+    cells, keys, values = missing_visits(key, burning, digest)
+    return Reply(
+        target,
+        cells.astype(np.uint16),
+        (keys // KEY_AIRCRAFT).astype(np.uint32),
+        (keys % KEY_AIRCRAFT).astype(np.uint8),
+        values,
+    )
+
+
+def reply_keys(reply: Reply) -> np.ndarray:
+    """The visit keys of a reply's cells."""
+    return visit_key(reply.ticks.astype(np.int64), reply.aircraft.astype(np.int64))
+
+
+class CatchUpQueue:
+    """What one aircraft owes its peers in its next messages: digests, then replies.
+
+    ``asks`` are the peers to send a digest to; ``answers`` maps a peer to the digest it sent
+    (the newest). At most ``MAX_SECTIONS`` of each go out per message, lowest peer first.
+    """
+
+    def __init__(self) -> None:
+        self.asks: set[int] = set()
+        self.answers: dict[int, np.ndarray] = {}
+
+    def compose(
+        self, key: np.ndarray, burning: np.ndarray
+    ) -> tuple[tuple[Digest, ...], tuple[Reply, ...]]:
+        """The digests and replies of the next message, from the replica's keys and values."""
+        asks = sorted(self.asks)[:MAX_SECTIONS]
+        answers = sorted(self.answers)[:MAX_SECTIONS]
+        self.asks -= set(asks)
+        digests = tuple(Digest(j, digest_of(key)) for j in asks)
+        replies = tuple(make_reply(j, key, burning, self.answers.pop(j)) for j in answers)
+        return digests, replies
+
+
+__all__ = [
+    "BLOCK",
+    "CATCH_UP_GAP_TICKS",
+    "DIGEST_TICK_CAP",
+    "CatchUpQueue",
+    "digest_of",
+    "link_returned",
+    "make_reply",
+    "missing_visits",
+    "reply_keys",
+]
