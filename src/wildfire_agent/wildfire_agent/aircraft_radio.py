@@ -26,7 +26,7 @@ import numpy as np
 
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.heard_poses import HeardPoses
-from wildfire_belief.catch_up import CatchUpQueue, link_returned, reply_keys
+from wildfire_belief.catch_up import CatchUpQueue, link_returned, reply_keys, retry_ticks
 from wildfire_belief.radio import CommModel, LinkDraws, delivered
 from wildfire_belief.replicas import KEY_AIRCRAFT, BeliefReplicas, visit_key
 from wildfire_belief.visits import visit_windows
@@ -137,7 +137,7 @@ class AircraftRadio:
         """Messages that will be heard, by the tick they are heard at."""
         self.tick = 0
         """The last tick received."""
-        self.queue = CatchUpQueue()
+        self.queue = CatchUpQueue(retry_ticks(model.delay))
         self.catch_ups = CatchUpLog()
 
     def start(self, team: AircraftState) -> None:
@@ -150,7 +150,7 @@ class AircraftRadio:
         replies: tuple[Reply, ...] = ()
         if self.queue.asks or self.queue.answers:
             replica = (self.replica.key[0, 0], self.replica.burning[0, 0])
-            digests, replies = self.queue.compose(*replica)
+            digests, replies = self.queue.compose(tick, *replica)
         message = RadioMessage(
             tick,
             self.k,
@@ -192,14 +192,16 @@ class AircraftRadio:
         for message, heard_window in self.in_flight.pop(tick, []):
             self._merge(heard_window, message.tick, message.aircraft)
             j = message.aircraft
-            if link_returned(self.heard.tick[0, 0, j], message.tick):
-                self.queue.asks.add(j)
+            returned = bool(link_returned(self.heard.tick[0, 0, j], message.tick))
+            if returned:
                 self.catch_ups.returned(j, tick)
+            self.queue.on_heard(j, tick, returned)
             for digest in message.digests:
                 if digest.target == self.k:
-                    self.queue.answers[j] = digest.block_ticks
+                    self.queue.on_digest(j, digest.block_ticks)
             for reply in message.replies:
                 if reply.target == self.k:
+                    self.queue.on_reply(j)
                     zero = np.zeros(reply.cells.size, dtype=np.int64)
                     cells = reply.cells.astype(np.int64)
                     self.replica.merge(zero, zero, cells, reply_keys(reply), reply.burning)

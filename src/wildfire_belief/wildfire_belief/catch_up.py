@@ -13,8 +13,9 @@ it) asks for what it missed:
    the asker's replica holds everything the peer's held when it answered;
 3. the asker merges them like any visit (last writer wins), once it hears the reply.
 
-Digest and reply ride in the ordinary radio messages, under the same radio model (a lost one
-is not retried: the next return asks again). Messages are composed from the replica as it
+Digest and reply ride in the ordinary radio messages, under the same radio model; when
+either is lost, the asker asks again once it hears the peer a round trip later
+(:func:`retry_ticks`). Messages are composed from the replica as it
 stands before the tick's own merges, in the environment and in an agent alike.
 """
 
@@ -77,24 +78,50 @@ def reply_keys(reply: Reply) -> np.ndarray:
     return visit_key(reply.ticks.astype(np.int64), reply.aircraft.astype(np.int64))
 
 
+def retry_ticks(delay: int) -> int:
+    """Ticks after a digest before asking again: a round trip (digest, then reply, each a
+    tick to compose and ``delay`` to arrive) and a margin."""
+    return 2 * (delay + 1) + 3
+
+
 class CatchUpQueue:
-    """What one aircraft owes its peers in its next messages: digests, then replies.
+    """One aircraft's catch-ups: the digests and replies it owes its peers in its next
+    messages, and the digests still awaiting a reply.
 
     ``asks`` are the peers to send a digest to; ``answers`` maps a peer to the digest it sent
-    (the newest). At most ``MAX_SECTIONS`` of each go out per message, lowest peer first.
+    (the newest); ``waiting`` maps a peer to the tick of the last digest sent to it until its
+    reply arrives. A digest or reply lost on the radio is asked again once the peer is heard
+    ``retry`` ticks after the digest. At most ``MAX_SECTIONS`` of each go out per message,
+    lowest peer first.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, retry: int) -> None:
+        self.retry = retry
         self.asks: set[int] = set()
         self.answers: dict[int, np.ndarray] = {}
+        self.waiting: dict[int, int] = {}
+
+    def on_heard(self, peer: int, tick: int, returned: bool) -> None:
+        """Peer ``peer`` heard at ``tick``; ``returned``: its message ended a gap."""
+        late = peer in self.waiting and tick - self.waiting[peer] >= self.retry
+        if returned or late:
+            self.asks.add(peer)
+
+    def on_digest(self, peer: int, block_ticks: np.ndarray) -> None:
+        self.answers[peer] = block_ticks
+
+    def on_reply(self, peer: int) -> None:
+        self.waiting.pop(peer, None)
 
     def compose(
-        self, key: np.ndarray, burning: np.ndarray
+        self, tick: int, key: np.ndarray, burning: np.ndarray
     ) -> tuple[tuple[Digest, ...], tuple[Reply, ...]]:
-        """The digests and replies of the next message, from the replica's keys and values."""
+        """The digests and replies of the message of ``tick``, from the replica's keys and
+        values as they stand."""
         asks = sorted(self.asks)[:MAX_SECTIONS]
         answers = sorted(self.answers)[:MAX_SECTIONS]
         self.asks -= set(asks)
+        self.waiting |= dict.fromkeys(asks, tick)
         digests = tuple(Digest(j, digest_of(key)) for j in asks)
         replies = tuple(make_reply(j, key, burning, self.answers.pop(j)) for j in answers)
         return digests, replies
@@ -110,4 +137,5 @@ __all__ = [
     "make_reply",
     "missing_visits",
     "reply_keys",
+    "retry_ticks",
 ]

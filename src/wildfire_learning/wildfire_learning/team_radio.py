@@ -25,7 +25,7 @@ import numpy as np
 from wildfire_agent.approaches import belief_images
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.heard_poses import HeardPoses
-from wildfire_belief.catch_up import CatchUpQueue, link_returned, reply_keys
+from wildfire_belief.catch_up import CatchUpQueue, link_returned, reply_keys, retry_ticks
 from wildfire_belief.radio import CommModel, LinkDraws, delivered
 from wildfire_belief.replicas import BeliefReplicas, visit_key
 from wildfire_belief.visits import VISIT_WINDOW, VisitWindows
@@ -54,7 +54,7 @@ class TeamRadio:
         self.seen = np.zeros(window, dtype=bool)
         self.reaches = np.zeros((*shape, n), dtype=bool)
         """[slot, e, sender, receiver]: the message will be heard."""
-        self.queues = [[CatchUpQueue() for _ in range(n)] for _ in range(num_envs)]
+        self.queues = [[self.new_queue() for _ in range(n)] for _ in range(num_envs)]
         self.sections: dict[tuple[int, int, int], tuple[tuple[Digest, ...], tuple[Reply, ...]]]
         self.sections = {}
         """Catch-up sections of the messages in flight, by (slot, episode, sender)."""
@@ -63,7 +63,10 @@ class TeamRadio:
         self.replicas.reset(env_ids, believed_burning)
         self.sent_tick[:, env_ids] = -1
         for e in np.atleast_1d(env_ids).tolist():
-            self.queues[e] = [CatchUpQueue() for _ in range(self.n)]
+            self.queues[e] = [self.new_queue() for _ in range(self.n)]
+
+    def new_queue(self) -> CatchUpQueue:
+        return CatchUpQueue(retry_ticks(self.model.delay))
 
     def send(
         self,
@@ -79,7 +82,7 @@ class TeamRadio:
         envs = np.flatnonzero(active)
         slots = self.model.delay + 1
         slot = tick[envs] % slots
-        self.compose(envs, slot)
+        self.compose(envs, slot, tick[envs])
         self.replicas.tick(envs)
         self.sent_tick[slot, envs] = tick[envs]
         for ring, now in zip(self.pose, pose, strict=True):
@@ -106,29 +109,31 @@ class TeamRadio:
         self.heard.hear(
             envs[e], i, j, sent[e], AircraftState(*(f[old[e], envs[e], j] for f in self.pose))
         )
+        now = tick[envs]
         for k in range(len(e)):
             env, sender, receiver = int(envs[e[k]]), int(j[k]), int(i[k])
-            if returned[k]:
-                self.queues[env][receiver].asks.add(sender)
+            self.queues[env][receiver].on_heard(sender, int(now[e[k]]), bool(returned[k]))
             self.hear_sections(int(old[e[k]]), env, sender, receiver)
 
-    def compose(self, envs: np.ndarray, slot: np.ndarray) -> None:
+    def compose(self, envs: np.ndarray, slot: np.ndarray, tick: np.ndarray) -> None:
         """Catch-up sections of this tick's messages, from the replicas as they stand."""
-        for env, s in zip(envs.tolist(), slot.tolist(), strict=True):
+        for env, s, now in zip(envs.tolist(), slot.tolist(), tick.tolist(), strict=True):
             for i, queue in enumerate(self.queues[env]):
                 self.sections.pop((s, env, i), None)
                 if queue.asks or queue.answers:
                     replica = (self.replicas.key[env, i], self.replicas.burning[env, i])
-                    self.sections[s, env, i] = queue.compose(*replica)
+                    self.sections[s, env, i] = queue.compose(now, *replica)
 
     def hear_sections(self, slot: int, env: int, sender: int, receiver: int) -> None:
         """A heard message's digests (answered next tick) and replies (merged now)."""
         digests, replies = self.sections.get((slot, env, sender), ((), ()))
+        queue = self.queues[env][receiver]
         for digest in digests:
             if digest.target == receiver:
-                self.queues[env][receiver].answers[sender] = digest.block_ticks
+                queue.on_digest(sender, digest.block_ticks)
         for reply in replies:
             if reply.target == receiver:
+                queue.on_reply(sender)
                 count = reply.cells.size
                 self.replicas.merge(
                     np.full(count, env),
