@@ -160,6 +160,13 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
         for t in topics
         if (k := contract.aircraft_index(t)) is not None and t == contract.STATE.resolve(k)
     )
+    if any(contract.RADIO.resolve(k) in topics for k in aircraft):
+        # Its aircraft decided on their own replicas and heard peers, which the ground
+        # station's belief and the true poses are not.
+        raise LearningError(
+            f"bag {bag}: recorded under limited radio links ({contract.RADIO.resolve(0)}): "
+            "rebuilding its transitions is not supported (record with ideal links)"
+        )
     required = [contract.FIRE_MAP.name] + ([contract.BELIEF.name] if need_belief else [])
     missing = [t for t in required if t not in topics]
     if not aircraft:
