@@ -14,7 +14,9 @@ import numpy as np
 import pytest
 
 from wildfire_belief.radio import CommModel
+from wildfire_learning.bag_transitions import read_recording
 from wildfire_learning.env import EnvConfig
+from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.vec_policies import make_vec_policy
 
@@ -73,6 +75,9 @@ def test_lockstep_under_limited_links_equals_evaluate(
         path = np.array([recorded[t][:2] for t in sorted(recorded)])
         assert np.array_equal(path, expected.trajectory[:, k])
         assert sorted(radio_ticks[k]) == list(range(1, expected.decisions + 1))
+    # Such a bag does not rebuild into transitions: the aircraft decided on their replicas.
+    with pytest.raises(LearningError, match="limited radio links"):
+        read_recording(bag, need_belief=True)
 
 
 def test_the_run_flies_on_when_the_ground_station_is_killed(
