@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from wildfire_belief.radio import CommModel
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.vec_policies import make_vec_policy
@@ -122,6 +123,28 @@ def test_lockstep_under_a_flood_equals_evaluate(
         missing = [key for key in keys if counted.get(key, 0) < 1]
         assert not missing, f"{node} counted no {missing}: {counted}"
         assert counted["dropped"] >= sum(counted[key] for key in keys)
+
+
+def test_limited_links_under_a_flood_equal_evaluate(
+    fuzzer: subprocess.Popen[str], dds_env: dict[str, str]
+) -> None:
+    """Radio messages that lie (another aircraft's index, NaN poses, windows off the pose,
+    truncated bytes, catch-up replies that do not inflate, future ticks) are dropped and
+    counted, and never change a decision."""
+    seed, duration, comm = 4, 12.0, "range=300,loss=0.2"
+    summary = run(
+        ["--policy", "rh", "--seed", str(seed), "--duration", str(duration), "--fast",
+         "--comm", comm],
+        dds_env,
+    )  # fmt: skip
+    config = EnvConfig(
+        n_aircraft=2, shapes=("circular",), max_duration_s=duration, comm=CommModel.parse(comm)
+    )
+    reference = evaluate(make_vec_policy("rh"), config, [seed]).episodes[0]
+    assert summary["score"] == reference.score
+    counted = drops(summary, "uav0/agent")
+    for reason in ("impersonation", "malformed", "out of range", "future"):
+        assert counted.get(f"/uav1/radio {reason}", 0) >= 1, counted
 
 
 def test_realtime_nodes_survive_a_flood(

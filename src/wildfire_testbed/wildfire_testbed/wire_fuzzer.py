@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from wildfire_msgs_py import codecs, contract, system_codecs
+from wildfire_msgs_py import codecs, contract, radio_codec, system_codecs
 from wildfire_ros.node_support import (
     contract_publisher,
     contract_subscription,
@@ -130,6 +130,42 @@ def _garbled_diagnostics(_: int) -> Any:
     return codecs.diagnostics_to_msg([status], 0)
 
 
+def _radio(**changes: Any) -> Callable[[int], Any]:
+    """A radio message of aircraft ``k`` at (500, 500), tick 1, with ``changes`` (an
+    ``aircraft`` change is relative: the message then claims another aircraft's index)."""
+
+    def build(k: int) -> Any:
+        # (50, 50) is the aircraft's cell: its window starts 10 cells south-west.
+        message = radio_codec.RadioMessage(
+            1, k, 500.0, 500.0, 0.0, 0, 40, 40, np.zeros(40, dtype=np.uint8)
+        )
+        fields = dict(changes)
+        message = message._replace(aircraft=k + fields.pop("aircraft", 0), **fields)
+        return radio_codec.radio_to_msg(message)
+
+    return build
+
+
+def _radio_bytes(data: bytes) -> Callable[[int], Any]:
+    def build(_: int) -> Any:
+        msg = radio_codec.radio_to_msg(
+            radio_codec.RadioMessage(1, 0, 0.0, 0.0, 0.0, 0, 0, 0, np.zeros(0, np.uint8))
+        )
+        msg.data = data
+        return msg
+
+    return build
+
+
+def _radio_bomb(k: int) -> Any:
+    """A catch-up reply whose payload does not inflate to what it claims."""
+    msg = _radio()(k)
+    header = bytes(msg.data[: radio_codec.HEADER.size - 1])
+    reply = bytes([0x01, 0, 0x10, 0x27, 4, 0]) + b"\x78\x9c\x03\x00"  # 10 000 cells, empty
+    msg.data = header + reply + bytes(msg.data[radio_codec.HEADER.size :])
+    return msg
+
+
 C = contract
 CASES: tuple[Case, ...] = (
     Case("fire map: data length", C.FIRE_MAP, _bad_length_grid),
@@ -167,6 +203,12 @@ CASES: tuple[Case, ...] = (
     Case("bank: NaN", C.BANK_CMD, lambda _: codecs.bank_cmd_to_msg(math.nan)),
     Case("state array: NaN", C.STATE, lambda _: codecs.state_to_msg((math.nan,) * 4)),
     Case("diagnostics: garbled", C.DIAGNOSTICS, _garbled_diagnostics),
+    Case("radio: another aircraft", C.RADIO, _radio(aircraft=1)),
+    Case("radio: NaN pose", C.RADIO, _radio(x_m=math.nan)),
+    Case("radio: future", C.RADIO, _radio(tick=10**9)),
+    Case("radio: window off the pose", C.RADIO, _radio(row0=7)),
+    Case("radio: truncated", C.RADIO, _radio_bytes(b"\x01\x00\x00")),
+    Case("radio: reply bomb", C.RADIO, _radio_bomb),
 )
 """Every bad message the fuzzer sends, each of its topic's own type."""
 

@@ -1,0 +1,309 @@
+"""Four downward cameras under the wing: which map cells each one sees, and its noisy reports.
+
+Frames
+------
+World: x east, y north, z up, ground at z = 0; the aircraft flies at ``ALTITUDE_M`` (200 m).
+Heading psi is counter-clockwise from east; a positive bank phi lowers the left wing (and
+turns left, as in ``wildfire_agent.dynamics``). The body axes of the banked aircraft are
+
+* forward ``f = (cos psi, sin psi, 0)``,
+* left ``l = cos phi * s - sin phi * z``,
+* up ``u = sin phi * s + cos phi * z``,
+
+with ``s = (-sin psi, cos psi, 0)`` the level left direction and ``z = (0, 0, 1)``.
+
+Cameras
+-------
+Camera i starts looking straight down, is pitched ``PITCH_DEG`` (30 degrees) forward, then
+rolled ``ROLL_DEG[i]`` (+40, +13, -13, -40 degrees; positive toward the left wing) about
+the body forward axis. In (f, l, u) components its optical axis, image x-axis and image
+y-axis are::
+
+    a_i = (sin theta,  cos theta sin phi_i, -cos theta cos phi_i)
+    h_i = (0,          cos phi_i,            sin phi_i)
+    v_i = (cos theta, -sin theta sin phi_i,  sin theta cos phi_i)
+
+(an orthonormal triple). Camera 0 looks furthest left, camera 3 furthest right. Each is a
+pinhole of focal length 50 mm behind a 24 mm (x, 20 pixels) by 36 mm (y, 30 pixels)
+sensor: half fields of view of atan(12 / 50) = 13.5 degrees across and atan(18 / 50) =
+19.8 degrees along. The rolls are 27 and 26 degrees apart, about one across-track field of
+view, so at bank 0 the four footprints lie side by side in one band ahead of the aircraft
+(about 35 m to 275 m ahead, 275 m to either side). The side edges of a rolled, pitched
+pyramid are not parallel to the track, so neighbours do not meet exactly: they overlap a
+little, more so further ahead (see ``tests/test_camera.py``). A bank turns the whole rig
+with the airframe: in a left turn the cameras look to the right, out of the turn.
+
+Footprint
+---------
+A map cell is seen by camera i when its centre P (on the ground) has, with
+``r = P - (x, y, h)``: ``r . a_i > 0``, ``|50 (r . h_i) / (r . a_i)| <= 12`` and
+``|50 (r . v_i) / (r . a_i)| <= 18`` (its image falls on the sensor), lies within
+``RANGE_M`` (300 m) horizontally of the aircraft, and is inside the map. The rule is per
+cell, not per pixel: one pixel covers 1.2 mm / 50 mm of slant range, 5 m to 10 m on the
+ground over these footprints, about one 10 m cell, so a cell stands for a pixel.
+
+Cells within 300 m of the aircraft have their centres at most 30 cells from the
+aircraft's cell (the aircraft may sit anywhere inside it), so every footprint fits in a
+``CAMERA_WINDOW`` x ``CAMERA_WINDOW`` (61 x 61) window centred on that cell, the same
+window layout as the visits of ``wildfire_belief.visits``. The footprints of a whole batch
+of poses are then computed with broadcasting over a fixed shape, with no loop over cells.
+
+Noise
+-----
+Each seen cell reports its true burning value, flipped with probability p
+(``PIXEL_ERROR``, 0.1) independently per camera and decision. The uniforms come from the
+aircraft's own generator, in a fixed order, so an aircraft's reports for a seed do not
+depend on which or how many other aircraft share the batch (see :func:`noisy_reports`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS
+from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
+
+ALTITUDE_M = 200.0
+"""Flight altitude h above the ground."""
+NUM_CAMERAS = 4
+ROLL_DEG = (40.0, 13.0, -13.0, -40.0)
+"""Roll of each camera about the body forward axis, positive toward the left wing."""
+PITCH_DEG = 30.0
+"""Forward pitch of every camera from straight down."""
+FOCAL_LENGTH_MM = 50.0
+SENSOR_X_MM = 24.0
+"""Sensor extent along the image x-axis (across the track at bank 0)."""
+SENSOR_Y_MM = 36.0
+"""Sensor extent along the image y-axis (along the track at bank 0)."""
+PIXELS_X = 20
+PIXELS_Y = 30
+RANGE_M = 300.0
+"""Cells further than this horizontally from the aircraft are not seen."""
+PIXEL_ERROR = 0.1
+"""Probability that a seen cell reports the opposite of its true burning value."""
+WINDOW_HALF = 30
+"""Cells from the aircraft's cell to the window edge: a centre 31 cells off is > 300 m away."""
+CAMERA_WINDOW = 2 * WINDOW_HALF + 1
+"""Edge of the footprint window in cells."""
+
+_OFFSETS = np.arange(-WINDOW_HALF, WINDOW_HALF + 1)
+_SPAN = np.arange(CAMERA_WINDOW)
+# The sensor rule |F (r . h) / (r . a)| <= X / 2 taken as |r . h| <= (X / 2F) (r . a), which
+# needs no division (and no special case where r . a is 0).
+_TAN_HALF_X = SENSOR_X_MM / 2.0 / FOCAL_LENGTH_MM
+_TAN_HALF_Y = SENSOR_Y_MM / 2.0 / FOCAL_LENGTH_MM
+
+
+def camera_axes() -> np.ndarray:
+    """Body-frame axes of the cameras, (4, 3, 3): ``[camera, (a, h, v), (f, l, u)]``.
+
+    ``a`` is the optical axis, ``h`` and ``v`` the image x- and y-axes.
+    """
+    theta = np.deg2rad(PITCH_DEG)
+    phi = np.deg2rad(np.asarray(ROLL_DEG))
+    zero = np.zeros_like(phi)
+    a = np.stack(
+        [
+            np.full_like(phi, np.sin(theta)),
+            np.cos(theta) * np.sin(phi),
+            -np.cos(theta) * np.cos(phi),
+        ],
+        axis=-1,
+    )
+    h = np.stack([zero, np.cos(phi), np.sin(phi)], axis=-1)
+    v = np.stack(
+        [
+            np.full_like(phi, np.cos(theta)),
+            -np.sin(theta) * np.sin(phi),
+            np.sin(theta) * np.cos(phi),
+        ],
+        axis=-1,
+    )
+    return np.stack([a, h, v], axis=1)
+
+
+def _level_axes() -> np.ndarray:
+    """Camera axes of every bank step in the level frame (f, s, z), (21, 4, 3, 3).
+
+    The bank only mixes l and u into s and z; the heading then only rotates f and s about
+    the vertical, which is cheap per pose. So the 21 banks are done once, here.
+    """
+    body = camera_axes()
+    bank = np.arange(-MAX_BANK_STEPS, MAX_BANK_STEPS + 1) * BANK_STEP_RAD
+    cos_b, sin_b = np.cos(bank)[:, None, None], np.sin(bank)[:, None, None]
+    along_f, along_l, along_u = body[..., 0], body[..., 1], body[..., 2]
+    along_s = along_l * cos_b + along_u * sin_b
+    along_z = -along_l * sin_b + along_u * cos_b
+    return np.stack([np.broadcast_to(along_f, along_s.shape), along_s, along_z], axis=-1)
+
+
+_LEVEL_AXES = _level_axes()
+
+
+class CameraWindows(NamedTuple):
+    """Camera footprints of a batch of aircraft (leading dims of the poses, e.g. (E, N))."""
+
+    row0: np.ndarray
+    """Row of the window's southern edge (may be outside the map), int64."""
+    col0: np.ndarray
+    """Column of the window's western edge (may be outside the map), int64."""
+    seen: np.ndarray
+    """(..., 4, 61, 61) bool: cell seen by the camera (and inside the map)."""
+
+
+def camera_windows(
+    x_m: np.ndarray, y_m: np.ndarray, heading_rad: np.ndarray, bank_steps: np.ndarray
+) -> CameraWindows:
+    """The camera footprints of aircraft at the given poses (any matching shapes).
+
+    ``bank_steps`` is the bank in 5-degree steps, integers in [-10, 10] (as
+    ``AircraftState.bank_steps``).
+    """
+    x_m, y_m = np.asarray(x_m, dtype=np.float64), np.asarray(y_m, dtype=np.float64)
+    heading_rad = np.asarray(heading_rad, dtype=np.float64)
+    bank_steps = np.asarray(bank_steps)
+    if not np.issubdtype(bank_steps.dtype, np.integer):
+        raise ValueError(f"bank_steps must be integers, got {bank_steps.dtype}")
+    if np.any(np.abs(bank_steps) > MAX_BANK_STEPS):
+        # A negative index would silently wrap to another bank's axes.
+        raise ValueError(f"bank_steps must lie in [-{MAX_BANK_STEPS}, {MAX_BANK_STEPS}]")
+    row = np.floor(y_m / CELL_SIZE_M).astype(np.int64)
+    col = np.floor(x_m / CELL_SIZE_M).astype(np.int64)
+    rows = row[..., None] + _OFFSETS  # (..., 61)
+    cols = col[..., None] + _OFFSETS
+    dy = (rows + 0.5) * CELL_SIZE_M - y_m[..., None]
+    dx = (cols + 0.5) * CELL_SIZE_M - x_m[..., None]
+    within = dy[..., :, None] ** 2 + dx[..., None, :] ** 2 <= RANGE_M**2
+    row_inside = (rows >= 0) & (rows < GRID_SIZE)
+    col_inside = (cols >= 0) & (cols < GRID_SIZE)
+    usable = within & row_inside[..., :, None] & col_inside[..., None, :]  # (..., 61, 61)
+
+    level = _LEVEL_AXES[bank_steps + MAX_BANK_STEPS]  # (..., 4, 3, 3): (a, h, v) in (f, s, z)
+    cos_h = np.cos(heading_rad)[..., None, None]
+    sin_h = np.sin(heading_rad)[..., None, None]
+    east = level[..., 0] * cos_h - level[..., 1] * sin_h  # (..., 4, 3)
+    north = level[..., 0] * sin_h + level[..., 1] * cos_h
+    # r . w = w_x dx + w_y dy - h w_z is a sum of a row term and a column term: one
+    # broadcast addition per camera axis over the window.
+    column_term = east[..., None] * dx[..., None, None, :] - ALTITUDE_M * level[..., 2, None]
+    row_term = north[..., None] * dy[..., None, None, :]  # (..., 4, 3, 61)
+
+    def project(axis: int) -> np.ndarray:
+        """r . axis over the window, (..., 4, 61 rows, 61 cols)."""
+        return row_term[..., axis, :, None] + column_term[..., axis, None, :]
+
+    along_a = project(0)
+    # With r . a <= 0 both bounds fail unless r . h = r . v = 0 too, impossible as r has a
+    # vertical component of -200 m: no separate r . a > 0 test is needed.
+    seen = np.abs(project(1)) <= _TAN_HALF_X * along_a
+    seen &= np.abs(project(2)) <= _TAN_HALF_Y * along_a
+    seen &= usable[..., None, :, :]
+    return CameraWindows(row0=row - WINDOW_HALF, col0=col - WINDOW_HALF, seen=seen)
+
+
+def camera_cells(x_m: float, y_m: float, heading_rad: float, bank_steps: int) -> list[np.ndarray]:
+    """The cells each camera of one aircraft sees: 4 arrays (K, 2) of (row, col), int64,
+    in row-major order (ascending flat cell index)."""
+    windows = camera_windows(
+        np.asarray(x_m), np.asarray(y_m), np.asarray(heading_rad), np.asarray(bank_steps)
+    )
+    cells = []
+    for camera in range(NUM_CAMERAS):
+        i, j = np.nonzero(windows.seen[camera])  # row-major, like the flat map index
+        cells.append(np.stack([windows.row0 + i, windows.col0 + j], axis=-1).astype(np.int64))
+    return cells
+
+
+def window_values(grid: np.ndarray, windows: CameraWindows) -> np.ndarray:
+    """Values of a (E, H, W) grid in each camera window, (E, N, 61, 61); 0 outside the map.
+
+    ``windows`` has leading dims (E, N). This is the truth :func:`noisy_reports` flips.
+    """
+    rows = windows.row0[..., None] + _SPAN  # (E, N, 61)
+    cols = windows.col0[..., None] + _SPAN
+    inside = ((rows >= 0) & (rows < GRID_SIZE))[..., :, None]
+    inside = inside & ((cols >= 0) & (cols < GRID_SIZE))[..., None, :]
+    env = np.arange(grid.shape[0])[:, None, None, None]
+    values = grid[
+        env,
+        np.clip(rows, 0, GRID_SIZE - 1)[..., :, None],
+        np.clip(cols, 0, GRID_SIZE - 1)[..., None, :],
+    ]
+    return np.where(inside, values, 0).astype(grid.dtype)
+
+
+def noisy_reports(
+    truth: np.ndarray,
+    seen: np.ndarray,
+    rngs: Sequence[np.random.Generator],
+    p: float = PIXEL_ERROR,
+) -> np.ndarray:
+    """What the cameras report: each seen cell's truth, flipped with probability ``p``.
+
+    Parameters
+    ----------
+    truth : (..., 61, 61) array
+        Burning values in each aircraft's window (nonzero is burning), e.g. from
+        :func:`window_values`.
+    seen : (..., 4, 61, 61) bool
+        The footprints, ``CameraWindows.seen``.
+    rngs : sequence of numpy.random.Generator
+        One generator per aircraft, in C order of the leading dims (for (E, N): aircraft
+        ``n`` of environment ``e`` is ``rngs[e * N + n]``). The caller owns them.
+    p : float
+        Flip probability, in [0, 1].
+
+    Returns
+    -------
+    (..., 4, 61, 61) bool
+        The reported burning value of each seen cell, per camera; False where not seen.
+
+    Notes
+    -----
+    Generator ``k`` draws exactly ``seen[k].sum()`` uniforms, one per (camera, seen cell),
+    camera-major then by ascending flat cell index (row-major window order is flat map
+    order), and a cell flips when its uniform is < p. The draws do not depend on p, the
+    truth, or any other aircraft, so an aircraft's reports for a given generator state are
+    bit-identical whatever the batch.
+    """
+    if not 0.0 <= p <= 1.0:
+        raise ValueError(f"p must lie in [0, 1], got {p}")
+    seen = np.asarray(seen, dtype=bool)
+    lead = seen.shape[:-3]
+    num_aircraft = int(np.prod(lead, dtype=np.int64))
+    if len(rngs) != num_aircraft:
+        raise ValueError(f"expected {num_aircraft} generators (one per aircraft), got {len(rngs)}")
+    counts = seen.reshape(num_aircraft, -1).sum(axis=1)
+    uniforms = [rng.random(int(count)) for rng, count in zip(rngs, counts, strict=True)]
+    flips = np.concatenate(uniforms) < p if uniforms else np.zeros(0, dtype=bool)
+    reports = np.asarray(truth, dtype=bool)[..., None, :, :] & seen
+    # Boolean indexing walks ``seen`` in C order: aircraft, camera, row, column, the order in
+    # which the uniforms were concatenated.
+    reports[seen] ^= flips
+    return reports
+
+
+__all__ = [
+    "ALTITUDE_M",
+    "CAMERA_WINDOW",
+    "FOCAL_LENGTH_MM",
+    "NUM_CAMERAS",
+    "PITCH_DEG",
+    "PIXELS_X",
+    "PIXELS_Y",
+    "PIXEL_ERROR",
+    "RANGE_M",
+    "ROLL_DEG",
+    "SENSOR_X_MM",
+    "SENSOR_Y_MM",
+    "WINDOW_HALF",
+    "CameraWindows",
+    "camera_axes",
+    "camera_cells",
+    "camera_windows",
+    "noisy_reports",
+    "window_values",
+]
