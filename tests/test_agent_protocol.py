@@ -17,20 +17,18 @@ import pytest
 
 from wildfire_agent import dynamics
 from wildfire_agent.agent_protocol import (
-    PERIOD_S,
     AckOut,
     AgentProtocol,
     DeadlineOut,
-    DeadlineStats,
     Mode,
     Output,
     StateOut,
     VisitOut,
-    next_slot_start,
     state_vector,
     team_state,
 )
 from wildfire_agent.aircraft_policy import AircraftPolicy
+from wildfire_agent.deadlines import PERIOD_S, DeadlineStats, next_slot_start
 from wildfire_agent.dynamics import AircraftState
 from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
 from wildfire_msgs_py.system_codecs import EpisodeStatus

@@ -27,7 +27,6 @@ from typing import Any
 
 from wildfire_agent.agent_protocol import (
     MAX_BANK_RAD,
-    PERIOD_S,
     AckOut,
     AgentProtocol,
     DeadlineOut,
@@ -36,6 +35,7 @@ from wildfire_agent.agent_protocol import (
     RadioOut,
     StateOut,
 )
+from wildfire_agent.deadlines import PERIOD_S
 from wildfire_agent.dynamics import MAX_BANK_STEPS, AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policy_names import BUILTIN_POLICIES, EXPECTED_POLICIES

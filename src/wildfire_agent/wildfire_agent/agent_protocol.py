@@ -35,13 +35,18 @@ import numpy as np
 from wildfire_agent import dynamics
 from wildfire_agent.aircraft_policy import AircraftPolicy
 from wildfire_agent.aircraft_radio import AircraftRadio, window_of
+from wildfire_agent.deadlines import (
+    DEADLINE_EVERY_DECISIONS,
+    DeadlineStats,
+    next_slot_start,
+)
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.receding_horizon import RecedingHorizonConfig
 from wildfire_belief.radio import CommError, CommModel
 from wildfire_belief.visits import visit_windows, window_values
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
-from wildfire_msgs_py.contract import AIRCRAFT_PREFIX, DEADLINE_STATUS, RADIO_STATUS
+from wildfire_msgs_py.contract import AIRCRAFT_PREFIX, RADIO_STATUS
 from wildfire_msgs_py.input_guard import (
     DropReason,
     RejectedMessage,
@@ -61,9 +66,6 @@ from wildfire_sim.episode import (
     stamp_ceiling_ns,
 )
 
-PERIOD_S = DECISION_PERIOD_NS / 1e9
-DEADLINE_EVERY_DECISIONS = 10
-"""Deadline statistics go out at 1 Hz: every message costs each node a publish."""
 REQUEST_ANSWER_PERIOD_S = 1.0
 """A belief snapshot (160 kB) goes out at most once a second, whoever asks."""
 BELIEFS_KEPT = 4
@@ -112,59 +114,6 @@ class DeadlineOut(NamedTuple):
 
 
 Output = StateOut | VisitOut | RadioOut | AckOut | DeadlineOut
-
-
-class DeadlineStats:
-    """Decision-time statistics of the 10 Hz loop."""
-
-    def __init__(self) -> None:
-        self.decisions = 0
-        self.missed = 0
-        self.compute_s_total = 0.0
-        self.compute_s_max = 0.0
-        self.late_s_max = 0.0
-
-    def add(self, compute_s: float, late_s: float) -> None:
-        self.decisions += 1
-        self.compute_s_total += compute_s
-        self.compute_s_max = max(self.compute_s_max, compute_s)
-        self.late_s_max = max(self.late_s_max, late_s)
-        if late_s + compute_s > PERIOD_S:
-            self.missed += 1
-
-    def level(self) -> str:
-        """Diagnostic level: OK under 1 % missed deadlines, WARN under 10 %, else ERROR."""
-        fraction = self.missed / max(self.decisions, 1)
-        return "OK" if fraction < 0.01 else "WARN" if fraction < 0.1 else "ERROR"
-
-    def as_dict(self) -> dict[str, float | int]:
-        return {
-            "decisions": self.decisions,
-            "missed": self.missed,
-            "missed_fraction": self.missed / max(self.decisions, 1),
-            "compute_ms_mean": 1e3 * self.compute_s_total / max(self.decisions, 1),
-            "compute_ms_max": 1e3 * self.compute_s_max,
-            "late_ms_max": 1e3 * self.late_s_max,
-        }
-
-    def node_status(self, name_tag: str) -> NodeStatus:
-        stats = self.as_dict()
-        return NodeStatus(
-            f"{name_tag}/agent: {DEADLINE_STATUS}",
-            name_tag,
-            self.level(),
-            f"{stats['missed']} of {stats['decisions']} decisions missed their 100 ms slot",
-            dict(stats),
-        )
-
-
-def next_slot_start(slot_start: float, now_s: float, period_s: float = PERIOD_S) -> float:
-    """Start of the next decision slot after ``now_s``.
-
-    Slots follow the wall clock: a late decision does not shift the next slot, and a
-    decision that overran several slots skips them instead of queueing decisions.
-    """
-    return slot_start + period_s * max(1, int((now_s - slot_start) // period_s))
 
 
 def state_vector(state: AircraftState) -> np.ndarray:
@@ -525,17 +474,14 @@ class AgentProtocol:
 
 __all__ = [
     "MAX_BANK_RAD",
-    "PERIOD_S",
     "AckOut",
     "AgentProtocol",
     "DeadlineOut",
-    "DeadlineStats",
     "Mode",
     "Output",
     "RadioOut",
     "StateOut",
     "VisitOut",
-    "next_slot_start",
     "state_vector",
     "team_state",
     "visit_window",
