@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wildfire_belief.replicas import KEY_AIRCRAFT, visit_key
+from wildfire_belief.replicas import KEY_AIRCRAFT, KEY_SHIFT, visit_key
 from wildfire_msgs_py.radio_codec import MAX_SECTIONS, Digest, Reply
 
 CATCH_UP_GAP_TICKS = 10
@@ -43,7 +43,7 @@ def digest_of(key: np.ndarray) -> np.ndarray:
     """(100,) uint16: per block of a replica's (H, W) keys, the oldest last-visit tick of
     its cells (0 while a cell was never visited)."""
     size = key.shape[-1]
-    ticks = np.clip(key // KEY_AIRCRAFT, 0, DIGEST_TICK_CAP)
+    ticks = np.clip(key >> KEY_SHIFT, 0, DIGEST_TICK_CAP)
     blocks = ticks.reshape(size // BLOCK, BLOCK, size // BLOCK, BLOCK).min(axis=(1, 3))
     return blocks.reshape(-1).astype(np.uint16)
 
@@ -57,7 +57,7 @@ def missing_visits(
     per_cell = np.repeat(
         np.repeat(digest.reshape(size // BLOCK, size // BLOCK), BLOCK, 0), BLOCK, 1
     )
-    newer = np.flatnonzero(key.reshape(-1) // KEY_AIRCRAFT > per_cell.reshape(-1))
+    newer = np.flatnonzero(key.reshape(-1) >> KEY_SHIFT > per_cell.reshape(-1))
     return newer, key.reshape(-1)[newer], burning.reshape(-1)[newer]
 
 
@@ -67,8 +67,8 @@ def make_reply(target: int, key: np.ndarray, burning: np.ndarray, digest: np.nda
     return Reply(
         target,
         cells.astype(np.uint16),
-        (keys // KEY_AIRCRAFT).astype(np.uint32),
-        (keys % KEY_AIRCRAFT).astype(np.uint8),
+        (keys >> KEY_SHIFT).astype(np.uint32),
+        (keys & (KEY_AIRCRAFT - 1)).astype(np.uint8),
         values,
     )
 

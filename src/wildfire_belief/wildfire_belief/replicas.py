@@ -21,7 +21,10 @@ import numpy as np
 from wildfire_belief.belief import AGE_CAP_TICKS, TICKS_PER_S
 from wildfire_sim.grid import GRID_SIZE
 
-KEY_AIRCRAFT = 64
+KEY_SHIFT = 6
+"""Bits of the aircraft index in a visit key: the tick is ``key >> KEY_SHIFT`` (a shift, not a
+division: ages are read from every key of every replica at each decision)."""
+KEY_AIRCRAFT = 1 << KEY_SHIFT
 """Aircraft slots of a visit key (teams have at most 64 aircraft)."""
 UNVISITED_KEY = -AGE_CAP_TICKS * KEY_AIRCRAFT
 """Key of a cell no visit has set: its age is the cap, and any visit is newer."""
@@ -29,7 +32,7 @@ UNVISITED_KEY = -AGE_CAP_TICKS * KEY_AIRCRAFT
 
 def visit_key(tick: np.ndarray | int, aircraft: np.ndarray | int) -> np.ndarray:
     """The merge key of aircraft ``aircraft``'s visit at ``tick`` (int64)."""
-    return np.asarray(tick, dtype=np.int64) * KEY_AIRCRAFT + np.asarray(aircraft, dtype=np.int64)
+    return (np.asarray(tick, dtype=np.int64) << KEY_SHIFT) | np.asarray(aircraft, dtype=np.int64)
 
 
 class BeliefReplicas:
@@ -86,7 +89,7 @@ class BeliefReplicas:
 
     def last_visit(self) -> np.ndarray:
         """Tick of each cell's newest visit, (E, R, H, W) int64."""
-        return self.key // KEY_AIRCRAFT
+        return self.key >> KEY_SHIFT
 
     def age_ticks(self) -> np.ndarray:
         """Deciseconds since each cell's newest visit, capped, (E, R, H, W) int64."""
@@ -97,4 +100,4 @@ class BeliefReplicas:
         return (self.age_ticks() / TICKS_PER_S).astype(np.float32)
 
 
-__all__ = ["KEY_AIRCRAFT", "UNVISITED_KEY", "BeliefReplicas", "visit_key"]
+__all__ = ["KEY_AIRCRAFT", "KEY_SHIFT", "UNVISITED_KEY", "BeliefReplicas", "visit_key"]
