@@ -27,11 +27,16 @@ y-axis are::
 pinhole of focal length 50 mm behind a 24 mm (x, 20 pixels) by 36 mm (y, 30 pixels)
 sensor: half fields of view of atan(12 / 50) = 13.5 degrees across and atan(18 / 50) =
 19.8 degrees along. The rolls are 27 and 26 degrees apart, about one across-track field of
-view, so at bank 0 the four footprints lie side by side in one band ahead of the aircraft
-(about 35 m to 275 m ahead, 275 m to either side). The side edges of a rolled, pitched
-pyramid are not parallel to the track, so neighbours do not meet exactly: they overlap a
-little, more so further ahead (see ``tests/test_camera.py``). A bank turns the whole rig
-with the airframe: in a left turn the cameras look to the right, out of the turn.
+view (27 degrees), so at bank 0 the four footprints lie side by side in one band ahead of
+the aircraft, about 35 m to 270 m ahead and 275 m to either side (~1 010 cells; 326, 256,
+256 and 326 per camera, the outer two cut by the 300 m range). The band is not an exact
+tiling: the side edges of a pitched, rolled pyramid are not parallel to the track, so
+neighbours overlap in wedges that widen ahead (41 to 51 cells per pair, ~14% of the band
+seen twice; cameras two apart never share a cell), and the inner cameras' far edges reach
+only ~240 m near the track, a notch in the band's far edge. A bank turns the whole rig
+with the airframe: in a left turn the cameras look to the right, out of the turn; at
++/-50 degrees the outer camera on the raised wing looks at the horizon and sees nothing
+within 300 m.
 
 Footprint
 ---------
@@ -39,7 +44,7 @@ A map cell is seen by camera i when its centre P (on the ground) has, with
 ``r = P - (x, y, h)``: ``r . a_i > 0``, ``|50 (r . h_i) / (r . a_i)| <= 12`` and
 ``|50 (r . v_i) / (r . a_i)| <= 18`` (its image falls on the sensor), lies within
 ``RANGE_M`` (300 m) horizontally of the aircraft, and is inside the map. The rule is per
-cell, not per pixel: one pixel covers 1.2 mm / 50 mm of slant range, 5 m to 10 m on the
+cell, not per pixel: one pixel spans 1.2 mm / 50 mm of the slant range, 5 m to 15 m on the
 ground over these footprints, about one 10 m cell, so a cell stands for a pixel.
 
 Cells within 300 m of the aircraft have their centres at most 30 cells from the
@@ -91,8 +96,6 @@ CAMERA_WINDOW = 2 * WINDOW_HALF + 1
 
 _OFFSETS = np.arange(-WINDOW_HALF, WINDOW_HALF + 1)
 _SPAN = np.arange(CAMERA_WINDOW)
-# The sensor rule |F (r . h) / (r . a)| <= X / 2 taken as |r . h| <= (X / 2F) (r . a), which
-# needs no division (and no special case where r . a is 0).
 _TAN_HALF_X = SENSOR_X_MM / 2.0 / FOCAL_LENGTH_MM
 _TAN_HALF_Y = SENSOR_Y_MM / 2.0 / FOCAL_LENGTH_MM
 
@@ -105,42 +108,45 @@ def camera_axes() -> np.ndarray:
     theta = np.deg2rad(PITCH_DEG)
     phi = np.deg2rad(np.asarray(ROLL_DEG))
     zero = np.zeros_like(phi)
-    a = np.stack(
-        [
-            np.full_like(phi, np.sin(theta)),
-            np.cos(theta) * np.sin(phi),
-            -np.cos(theta) * np.cos(phi),
-        ],
-        axis=-1,
-    )
-    h = np.stack([zero, np.cos(phi), np.sin(phi)], axis=-1)
-    v = np.stack(
-        [
-            np.full_like(phi, np.cos(theta)),
-            -np.sin(theta) * np.sin(phi),
-            np.sin(theta) * np.cos(phi),
-        ],
-        axis=-1,
-    )
-    return np.stack([a, h, v], axis=1)
+    a = [
+        np.full_like(phi, np.sin(theta)),
+        np.cos(theta) * np.sin(phi),
+        -np.cos(theta) * np.cos(phi),
+    ]
+    h = [zero, np.cos(phi), np.sin(phi)]
+    v = [
+        np.full_like(phi, np.cos(theta)),
+        -np.sin(theta) * np.sin(phi),
+        np.sin(theta) * np.cos(phi),
+    ]
+    return np.stack([np.stack(a, axis=-1), np.stack(h, axis=-1), np.stack(v, axis=-1)], axis=1)
 
 
-def _level_axes() -> np.ndarray:
-    """Camera axes of every bank step in the level frame (f, s, z), (21, 4, 3, 3).
+def _edge_normals() -> np.ndarray:
+    """Inward normals of each camera's four side planes per bank step, (21, 4, 4, 3).
 
-    The bank only mixes l and u into s and z; the heading then only rotates f and s about
-    the vertical, which is cheap per pose. So the 21 banks are done once, here.
+    Indexed ``[bank_steps + 10, camera, side, (f, s, z)]``: r is inside the field of view
+    when r . n >= 0 for all four sides. ``|50 (r . h) / (r . a)| <= 12`` is the pair
+    ``r . (t a - h) >= 0``, ``r . (t a + h) >= 0`` with t = 12 / 50 (likewise v, 18 / 50);
+    these two also give ``r . a >= 0``, and ``r . a = 0`` would then force ``r . h = r . v
+    = 0``, i.e. r = 0, impossible 200 m above the ground, so ``r . a > 0`` needs no test.
+    Components are in the level frame (f, s, z): the bank only mixes l and u into s and z,
+    so the 21 banks are done once, here; the heading then turns f and s about the vertical.
     """
-    body = camera_axes()
+    a, h, v = np.moveaxis(camera_axes(), 1, 0)  # each (4, 3) in (f, l, u)
+    sides = np.stack(
+        [_TAN_HALF_X * a - h, _TAN_HALF_X * a + h, _TAN_HALF_Y * a - v, _TAN_HALF_Y * a + v],
+        axis=1,
+    )  # (4, 4, 3)
     bank = np.arange(-MAX_BANK_STEPS, MAX_BANK_STEPS + 1) * BANK_STEP_RAD
     cos_b, sin_b = np.cos(bank)[:, None, None], np.sin(bank)[:, None, None]
-    along_f, along_l, along_u = body[..., 0], body[..., 1], body[..., 2]
+    along_f, along_l, along_u = sides[..., 0], sides[..., 1], sides[..., 2]
     along_s = along_l * cos_b + along_u * sin_b
     along_z = -along_l * sin_b + along_u * cos_b
     return np.stack([np.broadcast_to(along_f, along_s.shape), along_s, along_z], axis=-1)
 
 
-_LEVEL_AXES = _level_axes()
+_EDGE_NORMALS = _edge_normals()
 
 
 class CameraWindows(NamedTuple):
@@ -161,6 +167,12 @@ def camera_windows(
 
     ``bank_steps`` is the bank in 5-degree steps, integers in [-10, 10] (as
     ``AircraftState.bank_steps``).
+
+    A footprint is the ground inside four planes through the aircraft: a convex polygon.
+    So in each window row a camera sees one run of columns, whose ends follow from the
+    four edge lines at that row's northing. The per-cell work is then two comparisons
+    against (camera, row) bounds: 5x faster than projecting every cell on the three camera
+    axes (measured at 64 x 2 poses; the same cells are found).
     """
     x_m, y_m = np.asarray(x_m, dtype=np.float64), np.asarray(y_m, dtype=np.float64)
     heading_rad = np.asarray(heading_rad, dtype=np.float64)
@@ -168,7 +180,7 @@ def camera_windows(
     if not np.issubdtype(bank_steps.dtype, np.integer):
         raise ValueError(f"bank_steps must be integers, got {bank_steps.dtype}")
     if np.any(np.abs(bank_steps) > MAX_BANK_STEPS):
-        # A negative index would silently wrap to another bank's axes.
+        # A negative index would silently wrap to another bank's normals.
         raise ValueError(f"bank_steps must lie in [-{MAX_BANK_STEPS}, {MAX_BANK_STEPS}]")
     row = np.floor(y_m / CELL_SIZE_M).astype(np.int64)
     col = np.floor(x_m / CELL_SIZE_M).astype(np.int64)
@@ -181,25 +193,24 @@ def camera_windows(
     col_inside = (cols >= 0) & (cols < GRID_SIZE)
     usable = within & row_inside[..., :, None] & col_inside[..., None, :]  # (..., 61, 61)
 
-    level = _LEVEL_AXES[bank_steps + MAX_BANK_STEPS]  # (..., 4, 3, 3): (a, h, v) in (f, s, z)
+    normals = _EDGE_NORMALS[bank_steps + MAX_BANK_STEPS]  # (..., 4, 4, 3)
     cos_h = np.cos(heading_rad)[..., None, None]
     sin_h = np.sin(heading_rad)[..., None, None]
-    east = level[..., 0] * cos_h - level[..., 1] * sin_h  # (..., 4, 3)
-    north = level[..., 0] * sin_h + level[..., 1] * cos_h
-    # r . w = w_x dx + w_y dy - h w_z is a sum of a row term and a column term: one
-    # broadcast addition per camera axis over the window.
-    column_term = east[..., None] * dx[..., None, None, :] - ALTITUDE_M * level[..., 2, None]
-    row_term = north[..., None] * dy[..., None, None, :]  # (..., 4, 3, 61)
-
-    def project(axis: int) -> np.ndarray:
-        """r . axis over the window, (..., 4, 61 rows, 61 cols)."""
-        return row_term[..., axis, :, None] + column_term[..., axis, None, :]
-
-    along_a = project(0)
-    # With r . a <= 0 both bounds fail unless r . h = r . v = 0 too, impossible as r has a
-    # vertical component of -200 m: no separate r . a > 0 test is needed.
-    seen = np.abs(project(1)) <= _TAN_HALF_X * along_a
-    seen &= np.abs(project(2)) <= _TAN_HALF_Y * along_a
+    east = normals[..., 0] * cos_h - normals[..., 1] * sin_h  # (..., 4, 4)
+    north = normals[..., 0] * sin_h + normals[..., 1] * cos_h
+    # Side k holds where slope * dx + offset >= 0, with r = (dx, dy, -h): per window row a
+    # bound on dx, from below where slope > 0 and from above where slope < 0. A side
+    # parallel to the rows (slope 0) keeps all of a row or none of it.
+    slope = east[..., None]  # (..., 4, 4, 1)
+    offset = north[..., None] * dy[..., None, None, :] - ALTITUDE_M * normals[..., 2, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        edge = -offset / slope  # (..., 4, 4, 61)
+    keep_all = np.where(offset >= 0, np.inf, -np.inf)
+    lower = np.where(slope > 0, edge, np.where(slope < 0, -np.inf, -keep_all))
+    upper = np.where(slope < 0, edge, np.where(slope > 0, np.inf, keep_all))
+    lower, upper = lower.max(axis=-2), upper.min(axis=-2)  # (..., 4, 61): per camera and row
+    column_dx = dx[..., None, None, :]
+    seen = (column_dx >= lower[..., None]) & (column_dx <= upper[..., None])
     seen &= usable[..., None, :, :]
     return CameraWindows(row0=row - WINDOW_HALF, col0=col - WINDOW_HALF, seen=seen)
 

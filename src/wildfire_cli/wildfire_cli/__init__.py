@@ -26,6 +26,7 @@ COMMAND_MODULES = (
     "eval",
     "train",
     "fire",
+    "sensor",
     "bench",
     "topic",
     "bag",
