@@ -11,7 +11,6 @@ import pytest
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))
-APPROACHES = ("obs", "belief")
 SCENARIOS = (
     "circular_2aircraft",
     "t_2aircraft",
@@ -19,11 +18,22 @@ SCENARIOS = (
     "circular_3aircraft",
     "circular_4aircraft",
 )
+POLICIES = {
+    # policy name: (approach, scenarios its card holds test results for)
+    "obs": ("obs", SCENARIOS),
+    "belief": ("belief", SCENARIOS),
+    "belief-radio": ("belief", (*SCENARIOS, "circular_2aircraft_commrange=300,loss=0.2")),
+}
 
 
-@pytest.mark.parametrize("approach", APPROACHES)
-def test_policy_loads_with_plain_torch_and_answers(approach: str) -> None:
-    path = MODELS / f"{approach}_policy.pt"
+def policy_file(name: str) -> Path:
+    return MODELS / f"{name.replace('-', '_')}_policy.pt"
+
+
+@pytest.mark.parametrize("name", POLICIES)
+def test_policy_loads_with_plain_torch_and_answers(name: str) -> None:
+    approach = POLICIES[name][0]
+    path = policy_file(name)
     assert path.stat().st_size < 5 * 2**20
     # No project import: what a user's own ROS 2 node would do.
     shape = (1, 1, 30, 40) if approach == "obs" else (1, 2, 100, 100)
@@ -43,14 +53,15 @@ def test_policy_loads_with_plain_torch_and_answers(approach: str) -> None:
     assert answer["card"] == json.loads(path.with_suffix(".json").read_text())
 
 
-@pytest.mark.parametrize("approach", APPROACHES)
-def test_model_card_says_how_it_was_trained_and_how_it_scores(approach: str) -> None:
-    card = json.loads((MODELS / f"{approach}_policy.json").read_text())
+@pytest.mark.parametrize("name", POLICIES)
+def test_model_card_says_how_it_was_trained_and_how_it_scores(name: str) -> None:
+    approach, scenarios = POLICIES[name]
+    card = json.loads(policy_file(name).with_suffix(".json").read_text())
     assert card["approach"] == approach
     for key in ("config", "iterations", "samples", "wall_time_s", "evaluation", "learning_curve"):
         assert card[key], key
     assert card["config"]["approach"] == approach
-    for scenario in SCENARIOS:
+    for scenario in scenarios:
         result = card["test_evaluations"][scenario]
         assert result["episodes"] >= 20 and min(result["seeds"]) >= 2_000_000, scenario
         assert all(
@@ -59,14 +70,14 @@ def test_model_card_says_how_it_was_trained_and_how_it_scores(approach: str) -> 
         ), scenario
 
 
-@pytest.mark.parametrize("approach", APPROACHES)
-def test_eval_flies_the_shipped_policy_by_name(approach: str) -> None:
+@pytest.mark.parametrize("name", POLICIES)
+def test_eval_flies_the_shipped_policy_by_name(name: str) -> None:
     done = subprocess.run(
-        [WILDFIRE, "eval", "--policy", approach, "--episodes", "1", "--duration", "5", "--json"],
+        [WILDFIRE, "eval", "--policy", name, "--episodes", "1", "--duration", "5", "--json"],
         capture_output=True,
         text=True,
         timeout=240,
         check=False,
     )
     assert done.returncode == 0, done.stderr
-    assert json.loads(done.stdout)["policy"] == approach
+    assert json.loads(done.stdout)["policy"] == name

@@ -7,6 +7,9 @@
   same planner settings otherwise (``receding_horizon.py`` documents the difference);
 * ``random`` — uniformly random actions;
 * ``obs`` / ``belief`` — the shipped Q-networks (``models/<name>_policy.pt``);
+* ``belief-radio`` — the shipped belief network trained under limited radio links
+  (``--comm range=300,loss=0.2``: each aircraft on its own replica;
+  ``models/belief_radio_policy.pt``);
 * anything ending in ``.pt`` or naming an existing file — a TorchScript Q-network.
 
 A policy flies a set of aircraft: one for an agent node's aircraft policy, every aircraft of every
@@ -42,9 +45,11 @@ PLANNER_POLICIES = ("rh", "rh-paper")
 """Receding-horizon baselines."""
 BUILTIN_POLICIES = (*PLANNER_POLICIES, "random")
 """Policies with no file (and so no model card)."""
-SHIPPED_POLICIES = APPROACHES
-"""Names of the shipped Q-network files (one per approach)."""
-EXPECTED_POLICIES = "rh, rh-paper, random, obs, belief or a TorchScript .pt file"
+RADIO_POLICY = "belief-radio"
+"""The belief network trained under limited radio links."""
+SHIPPED_POLICIES = (*APPROACHES, RADIO_POLICY)
+"""Names of the shipped Q-networks (one per approach, and the radio-trained belief network)."""
+EXPECTED_POLICIES = "rh, rh-paper, random, obs, belief, belief-radio or a TorchScript .pt file"
 """How an error message names what a policy may be."""
 ORACLE_POLICY = "oracle"
 """The clairvoyant bound (``wildfire_learning.oracle``): it reads the fire's future, so
@@ -55,7 +60,8 @@ EVAL_ONLY_POLICIES = (ORACLE_POLICY,)
 FILELESS_POLICIES = (*BUILTIN_POLICIES, *EVAL_ONLY_POLICIES)
 """Policy names with no policy file (and so no model card) behind them."""
 MODELS_DIR = Path(__file__).resolve().parents[3] / "models"
-"""Shipped policies (``obs_policy.pt``, ``belief_policy.pt``) in the repository."""
+"""Shipped policies (``obs_policy.pt``, ``belief_policy.pt``, ``belief_radio_policy.pt``) in
+the repository."""
 
 Policy = RecedingHorizonPolicy | RandomPolicy | TorchScriptPolicy
 """A policy flying a set of aircraft (what :meth:`PolicyFactory.build` returns)."""
@@ -76,9 +82,10 @@ def is_policy_file(policy: str) -> bool:
 
 
 def resolve_policy_path(name: str) -> Path:
-    """Path of a Q-network given as ``obs``/``belief`` (shipped) or a file path."""
+    """Path of a Q-network given as a shipped name (``belief-radio`` is
+    ``belief_radio_policy.pt``) or a file path."""
     if name in SHIPPED_POLICIES:
-        path = MODELS_DIR / f"{name}_policy.pt"
+        path = MODELS_DIR / f"{name.replace('-', '_')}_policy.pt"
         if not path.is_file():
             raise AgentConfigError(
                 f"policy {name!r}: the shipped model {path} is missing "
@@ -151,6 +158,7 @@ __all__ = [
     "MODELS_DIR",
     "ORACLE_POLICY",
     "PLANNER_POLICIES",
+    "RADIO_POLICY",
     "SHIPPED_POLICIES",
     "Policy",
     "PolicyFactory",

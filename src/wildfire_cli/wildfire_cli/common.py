@@ -132,7 +132,8 @@ def add_episode_arguments(
         "--policy",
         default="rh",
         help="rh (our receding horizon), rh-paper (the paper's, uncoordinated), random, obs, "
-        "belief (shipped models) or a TorchScript .pt",
+        "belief, belief-radio (shipped models; belief-radio trained under limited radio links) "
+        "or a TorchScript .pt",
     )
     parser.add_argument("--aircraft", type=positive_int, default=2, metavar="N")
     parser.add_argument("--shape", default="circular", help="circular, t or arc")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from wildfire_agent.policy_names import FILELESS_POLICIES, resolve_policy_path
+from wildfire_belief.radio import IDEAL, CommModel
 from wildfire_cli.common import (
     UserError,
     add_device_argument,
@@ -55,16 +56,21 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def card_key(
-    shape: str, aircraft: int, wind: tuple[float, float] | None, max_wind: float | None
+    shape: str,
+    aircraft: int,
+    wind: tuple[float, float] | None,
+    max_wind: float | None,
+    comm: CommModel = IDEAL,
 ) -> str:
     """Key of an evaluation in a model card: ``circular_2aircraft`` under the default random
-    wind, with the wind setting appended otherwise (so it never replaces the default's)."""
+    wind and ideal links, with the wind setting and the radio model appended otherwise (so
+    it never replaces the default's)."""
     key = Scenario(shape, aircraft).key
     if wind is not None:
-        return f"{key}_wind{wind[0]:g},{wind[1]:g}"
-    if max_wind is not None:
-        return f"{key}_maxwind{max_wind:g}"
-    return key
+        key = f"{key}_wind{wind[0]:g},{wind[1]:g}"
+    elif max_wind is not None:
+        key = f"{key}_maxwind{max_wind:g}"
+    return key if comm.ideal else f"{key}_comm{comm}"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -116,11 +122,12 @@ def run(args: argparse.Namespace) -> int:
         "duration_s": args.duration,
         "wind": config.wind,
         "max_wind": config.max_wind,
+        "comm": str(config.comm),
     }
     if args.card:
         from wildfire_learning.export import record_evaluation
 
-        scenario = card_key(shape.value, args.aircraft, args.wind, args.max_wind)
+        scenario = card_key(shape.value, args.aircraft, args.wind, args.max_wind, config.comm)
         card = record_evaluation(resolve_policy_path(args.policy), scenario, result)
         if not args.json:
             print(f"recorded {scenario} in {card}")

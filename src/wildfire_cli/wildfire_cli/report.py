@@ -69,8 +69,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         nargs="+",
         default=list(DEFAULT_POLICIES),
         metavar="POLICY",
-        help="rh, rh-paper, random, obs, belief (shipped models) or TorchScript .pt files "
-        f"(default: {' '.join(DEFAULT_POLICIES)})",
+        help="rh, rh-paper, random, obs, belief, belief-radio (shipped models) or TorchScript "
+        f".pt files (default: {' '.join(DEFAULT_POLICIES)})",
     )
     # The option's name before "policy" became the one word for it, kept for old scripts.
     parser.add_argument("--controllers", nargs="+", dest="policies", help=argparse.SUPPRESS)

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from wildfire_agent.approaches import APPROACHES
-from wildfire_agent.policy_names import ORACLE_POLICY
+from wildfire_agent.policy_names import ORACLE_POLICY, RADIO_POLICY
 from wildfire_belief.radio import IDEAL, CommModel
 from wildfire_learning.errors import LearningError
 from wildfire_learning.summary_stats import standard_error
@@ -36,6 +36,7 @@ from wildfire_sim.shapes import Shape
 POLICY_LABELS = {
     "obs": "observation DQN",
     "belief": "belief DQN",
+    RADIO_POLICY: "belief DQN (radio-trained)",
     "rh": "receding horizon",
     "rh-paper": "receding horizon (paper)",
     "random": "random",
