@@ -77,7 +77,13 @@ def obs_policy(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("policy", "n", "duration"),
-    [("rh", 3, 30.0), ("rh-paper", 3, 20.0), ("random", 2, 30.0), ("obs", 2, 20.0)],
+    [
+        ("rh", 3, 30.0),
+        ("rh-paper", 3, 20.0),
+        ("rh-belief", 2, 15.0),
+        ("random", 2, 30.0),
+        ("obs", 2, 20.0),
+    ],
 )
 def test_lockstep_run_equals_evaluate(
     tmp_path: Path, dds_env: dict[str, str], obs_policy: Path, policy: str, n: int, duration: float

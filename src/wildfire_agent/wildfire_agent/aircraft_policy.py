@@ -58,11 +58,16 @@ class AircraftPolicy:
             compile_kernels()
         self._maps: FireFieldMaps | None = None
         self._maps_key: object = None
+        self._belief_maps: FireFieldMaps | None = None
 
     @property
     def needs_belief(self) -> bool:
-        """True for a belief-based Q-network (it needs the shared belief and exact ages)."""
-        return self.observation == Approach.BELIEF
+        """True for a belief-based Q-network (it needs the shared belief and exact ages) and
+        for ``rh-belief`` (it plans on the believed map)."""
+        on_belief = isinstance(self.policy, RecedingHorizonPolicy) and (
+            self.policy.config.believed_map
+        )
+        return self.observation == Approach.BELIEF or on_belief
 
     def fire_maps(self, burning: np.ndarray, key: object) -> FireFieldMaps:
         """Reward look-up maps of the (H, W) truth, computed once per fire map ``key``."""
@@ -93,7 +98,16 @@ class AircraftPolicy:
             others = pairwise.other_indices(self.n_aircraft)[k]
             own = AircraftState(*(field[0, k : k + 1] for field in team_2d))
             peers = AircraftState(*(field[0, others][None] for field in team_2d))
-            maps = self.fire_maps(burning, fire_key)
+            if not self.policy.config.believed_map:
+                maps = self.fire_maps(burning, fire_key)
+            elif belief is None:
+                raise ValueError("rh-belief plans on the believed map: it needs the belief")
+            else:
+                # The belief changes every decision; only a plan reads the maps, so they are
+                # made only when one is due.
+                if self.policy.due().any() or self._belief_maps is None:
+                    self._belief_maps = fire_field_maps(belief[None], self.weights)
+                maps = self._belief_maps
             return int(self.policy.act(own, peers, np.zeros(1, dtype=np.int64), maps)[0])
         network: TorchScriptPolicy = self.policy
         states = pairwise.normalise(pairwise.pairwise_states(team_2d))[0, k : k + 1]

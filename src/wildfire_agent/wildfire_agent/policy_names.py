@@ -5,6 +5,8 @@
 * ``rh`` — our receding-horizon baseline (other aircraft predicted at constant bank);
 * ``rh-paper`` — the paper's uncoordinated receding horizon (each aircraft plans alone), the
   same planner settings otherwise (``receding_horizon.py`` documents the difference);
+* ``rh-belief`` — ``rh`` planning on the team's believed map instead of the truth (the fair
+  baseline of the learned policies);
 * ``random`` — uniformly random actions;
 * ``obs`` / ``belief`` — the shipped Q-networks (``models/<name>_policy.pt``);
 * ``belief-radio`` — the shipped belief network trained under limited radio links
@@ -41,7 +43,9 @@ from wildfire_agent.receding_horizon import (
 from wildfire_agent.rewards import ObservationRewardWeights
 from wildfire_sim.seeding import Stream, generator
 
-PLANNER_POLICIES = ("rh", "rh-paper")
+BELIEF_PLANNER = "rh-belief"
+"""The receding horizon on the believed map."""
+PLANNER_POLICIES = ("rh", "rh-paper", BELIEF_PLANNER)
 """Receding-horizon baselines."""
 BUILTIN_POLICIES = (*PLANNER_POLICIES, "random")
 """Policies with no file (and so no model card)."""
@@ -49,7 +53,9 @@ RADIO_POLICY = "belief-radio"
 """The belief network trained under limited radio links."""
 SHIPPED_POLICIES = (*APPROACHES, RADIO_POLICY)
 """Names of the shipped Q-networks (one per approach, and the radio-trained belief network)."""
-EXPECTED_POLICIES = "rh, rh-paper, random, obs, belief, belief-radio or a TorchScript .pt file"
+EXPECTED_POLICIES = (
+    "rh, rh-paper, rh-belief, random, obs, belief, belief-radio or a TorchScript .pt file"
+)
 """How an error message names what a policy may be."""
 ORACLE_POLICY = "oracle"
 """The clairvoyant bound (``wildfire_learning.oracle``): it reads the fire's future, so
@@ -70,10 +76,15 @@ Policy = RecedingHorizonPolicy | RandomPolicy | TorchScriptPolicy
 def planner_config(
     policy: str, base: RecedingHorizonConfig | None = None
 ) -> RecedingHorizonConfig | None:
-    """Planner settings of ``rh`` / ``rh-paper`` (T, tau, restarts from ``base``); else None."""
+    """Planner settings of ``rh`` / ``rh-paper`` / ``rh-belief`` (T, tau, restarts from
+    ``base``); else None."""
     if policy not in PLANNER_POLICIES:
         return None
-    return replace(base or RecedingHorizonConfig(), model_others=policy == "rh")
+    return replace(
+        base or RecedingHorizonConfig(),
+        model_others=policy != "rh-paper",
+        believed_map=policy == BELIEF_PLANNER,
+    )
 
 
 def is_policy_file(policy: str) -> bool:
@@ -151,6 +162,7 @@ def make_policy(
 
 
 __all__ = [
+    "BELIEF_PLANNER",
     "BUILTIN_POLICIES",
     "EVAL_ONLY_POLICIES",
     "EXPECTED_POLICIES",

@@ -4,8 +4,9 @@ Every ``replan_every`` (tau) decisions, each aircraft plans on its own (not join
 sequence of ``horizon`` (T) bank actions that maximises the summed observation-based reward
 (``rewards.py``) on the **true** fire map held fixed, and then flies its first tau actions.
 
-Two baselines differ only in the planner's model of the other aircraft
-(``RecedingHorizonConfig.model_others``):
+Three baselines differ only in the planner's model of the other aircraft
+(``RecedingHorizonConfig.model_others``) and in the map it plans on
+(``RecedingHorizonConfig.believed_map``):
 
 * ``rh`` (ours): the others are predicted to hold their current bank over the horizon, and the
   proximity term of the reward keeps the ownship's plan away from those predicted positions.
@@ -14,6 +15,10 @@ Two baselines differ only in the planner's model of the other aircraft
   the proximity term, whose weight is unchanged, has nothing to act on. Holding the others
   at their current position instead was rejected: that is still a model of them, and its
   penalty would push the aircraft apart, which the paper's planner does not do.
+* ``rh-belief`` (the fair baseline): ``rh`` planning on the team's *believed* map (the
+  shared belief, or under limited radio links the aircraft's own replica) instead of the
+  truth, which no real aircraft has. The learned policies see only what the team believes;
+  ``rh`` is privileged, ``rh-belief`` is not.
 
 Both keep the staggered re-planning (:func:`replan_phases`) and the same T, tau, restarts
 and reward weights: the stagger only picks which decision a plan is computed at, so that the
@@ -62,6 +67,8 @@ class RecedingHorizonConfig:
     model_others: bool = True
     """Predict the other aircraft at constant bank in the proximity term (``rh``); False: each
     aircraft plans as if alone (``rh-paper``, see the module docstring)."""
+    believed_map: bool = False
+    """Plan on the team's believed map, not the true fire (``rh-belief``)."""
 
     def __post_init__(self) -> None:
         if not 1 <= self.replan_every < self.horizon or self.restarts < 1:
@@ -164,15 +171,18 @@ class RecedingHorizonPolicy:
         self.on_plan: Callable[[PlanProblem], None] | None = None
         """Called with each plan's inputs before planning (``wildfire bench`` records them)."""
 
+    def due(self) -> np.ndarray:
+        """(P,) bool: the aircraft that plan at their next :meth:`act` (only they read the
+        maps: a caller may skip computing maps nobody reads)."""
+        if not self._planned:
+            return np.ones(len(self.generators), bool)
+        return self._flown >= self._segment
+
     def act(
         self, own: AircraftState, others: AircraftState, env: np.ndarray, maps: FireFieldMaps
     ) -> np.ndarray:
         """Actions (P,) of the aircraft ``own`` (fields (P,)); others' fields are (P, K)."""
-        due = (
-            np.ones(len(self.generators), bool)
-            if not self._planned
-            else (self._flown >= self._segment)
-        )
+        due = self.due()
         if due.any():
             index = np.flatnonzero(due)
             problem = PlanProblem(

@@ -320,6 +320,16 @@ class WildfireVecEnv:
         self._maps_stale[:] = False
         return self._maps
 
+    def believed_maps(self) -> FireFieldMaps:
+        """Reward look-up data of what the team believes burning (``rh-belief`` plans on it):
+        of the shared belief, (E, ...), or under limited links of each aircraft's replica,
+        (E * N, ...)."""
+        if self.radio is None:
+            believed = self.belief.burning
+        else:
+            believed = self.radio.replicas.burning.reshape(-1, GRID_SIZE, GRID_SIZE)
+        return fire_field_maps(believed, self.config.obs_weights)
+
     def team_views(self) -> AircraftState:
         """The team as each aircraft knows it, fields (E, N receivers, N aircraft).
 

@@ -26,6 +26,7 @@ from wildfire_agent.policy_names import (
     make_policy,
 )
 from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
+from wildfire_agent.rewards import FireFieldMaps
 from wildfire_learning.env import VecPolicy, WildfireVecEnv
 from wildfire_learning.oracle import OracleVecPolicy
 
@@ -69,26 +70,36 @@ class RandomVecPolicy:
 
 
 class RecedingHorizonVecPolicy:
-    """A receding-horizon baseline (``rh`` or ``rh-paper`` by ``config.model_others``), every
-    aircraft planning on its own."""
+    """A receding-horizon baseline (``rh``, ``rh-paper`` or ``rh-belief`` by its config),
+    every aircraft planning on its own."""
 
     observation = "none"
 
     def __init__(self, config: RecedingHorizonConfig | None = None) -> None:
         self.config = config or RecedingHorizonConfig()
         self.planner: RecedingHorizonPolicy | None = None
+        self._belief_maps: FireFieldMaps | None = None
 
     def reset(self, env: WildfireVecEnv) -> None:
         planner = build_for(PolicyFactory(planner=self.config), env)
         assert isinstance(planner, RecedingHorizonPolicy)
         self.planner = planner
+        self._belief_maps = None
 
     def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
         assert self.planner is not None, "reset() first"
         n = env.config.n_aircraft
         env_index = np.repeat(np.arange(env.num_envs), n)
+        maps = env.maps
+        if self.config.believed_map:
+            # Only aircraft about to plan read the maps: the believed ones are made then.
+            if self.planner.due().any() or self._belief_maps is None:
+                self._belief_maps = env.believed_maps()
+            maps = self._belief_maps
+            if env.radio is not None:  # one map per aircraft: its own replica
+                env_index = np.arange(env.num_envs * n)
         actions = self.planner.act(
-            flatten_aircraft(env.aircraft), others_of(env.team_views()), env_index, env.maps
+            flatten_aircraft(env.aircraft), others_of(env.team_views()), env_index, maps
         )
         return actions.reshape(env.num_envs, n)
 
