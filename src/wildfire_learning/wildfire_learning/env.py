@@ -68,6 +68,7 @@ from wildfire_belief.radio import IDEAL, CommModel
 from wildfire_belief.visits import visit_windows, visited_cells, window_values
 from wildfire_learning.errors import LearningError
 from wildfire_learning.team_radio import TeamRadio
+from wildfire_learning.team_sensing import SENSORS, TeamSensing
 from wildfire_sim.episode import (
     DECISIONS_PER_FIRE_STEP,
     EPISODE_DEFAULTS,
@@ -115,6 +116,15 @@ class EnvConfig:
     """Fire-model parameters."""
     comm: CommModel = IDEAL
     """Radio links between the aircraft (``ideal``: one shared belief)."""
+    sensor: str = "disc"
+    """``disc`` (the paper's: every cell within 100 m) or ``camera`` (four cameras)."""
+    pixel_error: float = 0.0
+    """Probability that a report flips (``--pixel-error``; 0.1 is the camera's default)."""
+
+    @property
+    def noisy(self) -> bool:
+        """Sensing other than the paper's perfect disc: a filtered (probability) belief."""
+        return self.sensor != "disc" or self.pixel_error > 0.0
 
     def validate(self) -> EnvConfig:
         """Return self, or raise :class:`LearningError` naming the bad field."""
@@ -136,6 +146,19 @@ class EnvConfig:
             raise LearningError(f"duration: expected > 0 s, got {self.max_duration_s}")
         if self.preburn_steps < 0:
             raise LearningError(f"preburn_steps: expected >= 0, got {self.preburn_steps}")
+        if self.sensor not in SENSORS:
+            raise LearningError(f"sensor: expected one of {SENSORS}, got {self.sensor!r}")
+        if not 0.0 <= self.pixel_error < 0.5:
+            raise LearningError(
+                f"pixel error: expected a number in [0, 0.5), got {self.pixel_error}"
+            )
+        if self.noisy and not self.comm.ideal:
+            raise LearningError("sensor: noisy sensing under limited radio links is not built yet")
+        if self.noisy and self.observation == Approach.OBS:
+            raise LearningError(
+                "sensor: the observation approach's noisy images are not built yet (noisy "
+                "sensing takes belief-based and planner policies)"
+            )
         self.fire.validate()
         return self
 
@@ -207,6 +230,11 @@ class WildfireVecEnv:
         # visits read it every decision, and the fire model stores its grids env-last.
         self.truth = np.ascontiguousarray(self.fire.burning)
         self.radio = None if config.comm.ideal else TeamRadio(config.comm, num_envs, n)
+        self.sensing = None
+        if config.noisy:
+            self.sensing = TeamSensing(
+                config.sensor, config.pixel_error, num_envs, n, config.preburn_steps
+            )
 
     # ------------------------------------------------------------------ reset
     def reset(
@@ -231,6 +259,9 @@ class WildfireVecEnv:
         self.belief.reset(env_ids, self.fire.burning[env_ids])
         if self.radio is not None:
             self.radio.reset(env_ids, self.fire.burning[env_ids])
+        if self.sensing is not None:
+            fuel = np.stack([m.fuel for m in masks])
+            self.sensing.reset(env_ids, seeds, self.fire.burning[env_ids], fuel)
         preburn = np.zeros(self.num_envs, dtype=bool)
         preburn[env_ids] = True
         for _ in range(self.config.preburn_steps):
@@ -271,7 +302,10 @@ class WildfireVecEnv:
             self.fire.step(fire_due)
             self.truth = np.ascontiguousarray(self.fire.burning)
             self._maps_stale |= fire_due
-        team_reward = self._visit(active)
+        if self.sensing is not None:
+            team_reward = self.sensing.sense(active, self.aircraft, self.truth, fire_due)
+        else:
+            team_reward = self._visit(active)
         self.scores += team_reward
 
         weights, a = self.config.obs_weights, self.aircraft
@@ -320,12 +354,21 @@ class WildfireVecEnv:
         self._maps_stale[:] = False
         return self._maps
 
+    def believed(self) -> np.ndarray:
+        """What the team believes burning, (E, H, W) bool: the shared belief, or the filtered
+        belief's probability > 0.5 under noisy sensing."""
+        return self.belief.burning if self.sensing is None else self.sensing.belief.believed()
+
+    def belief_age_s(self) -> np.ndarray:
+        """Seconds since each cell was last visited (or reported), capped, (E, H, W)."""
+        return self.belief.age_s() if self.sensing is None else self.sensing.belief.age_s()
+
     def believed_maps(self) -> FireFieldMaps:
         """Reward look-up data of what the team believes burning (``rh-belief`` plans on it):
         of the shared belief, (E, ...), or under limited links of each aircraft's replica,
         (E * N, ...)."""
         if self.radio is None:
-            believed = self.belief.burning
+            believed = self.believed()
         else:
             believed = self.radio.replicas.burning.reshape(-1, GRID_SIZE, GRID_SIZE)
         return fire_field_maps(believed, self.config.obs_weights)
@@ -358,7 +401,7 @@ class WildfireVecEnv:
         if kind == Approach.OBS:
             images = sensor_images(self.truth, self.aircraft)
         elif self.radio is None:
-            images = belief_images(self.belief.burning, self.belief.age_s(), self.aircraft)
+            images = belief_images(self.believed(), self.belief_age_s(), self.aircraft)
         else:
             images = self.radio.belief_images(self.aircraft)
         return {"image": images, "state": self.pair_states()}

@@ -52,6 +52,10 @@ class EpisodeRecord:
     mean_age_burning_s: float
     score_ceiling: int
     """Cells that burned during the flight, not believed burning at its start (score <= this)."""
+    false_alarms: int = 0
+    """Cells that turned believed burning while not burning (noisy sensing; 0 otherwise)."""
+    flipped_fraction: float = 0.0
+    """Reports that disagreed with the truth, of all reports (noisy sensing; 0 otherwise)."""
     trajectory: np.ndarray | None = None
     """(decisions + 1, N, 2) positions, if recorded."""
     final_burning: np.ndarray | None = None
@@ -88,6 +92,10 @@ class EvaluationSummary:
             "flight_time_s": [e.decisions / 10.0 for e in self.episodes],
             "winds": [list(e.wind) for e in self.episodes],
             "belief_iou_mean": float(np.mean([e.belief_iou for e in self.episodes])),
+            "belief_iou": [e.belief_iou for e in self.episodes],
+            "false_alarms": [e.false_alarms for e in self.episodes],
+            "false_alarms_mean": float(np.mean([e.false_alarms for e in self.episodes])),
+            "flipped_fraction": float(np.mean([e.flipped_fraction for e in self.episodes])),
             "mean_age_burning_s": float(np.nanmean([e.mean_age_burning_s for e in self.episodes])),
             "score_ceilings": self.score_ceilings.tolist(),
             "score_ceiling_mean": float(self.score_ceilings.mean()),
@@ -115,7 +123,7 @@ def evaluate(
     env = WildfireVecEnv(config, len(seeds))
     observations = env.reset(np.asarray(seeds))
     policy.reset(env)
-    believed_at_start = env.belief.burning.copy()
+    believed_at_start = env.believed().copy()
     burned_in_flight = env.truth.astype(bool)
     trajectory = [np.stack([env.aircraft.x_m, env.aircraft.y_m], axis=-1)] if record else []
     policy_seconds = 0.0
@@ -139,8 +147,10 @@ def evaluate(
             progress(int(env.decisions.max()), config.max_decisions)
     wall = time.perf_counter() - start
 
-    ious = belief_iou(env.belief.burning, env.fire.burning)
-    ages = mean_age_at_burning(env.belief.age_s(), env.fire.burning)
+    ious = belief_iou(env.believed(), env.fire.burning)
+    ages = mean_age_at_burning(env.belief_age_s(), env.fire.burning)
+    sensing = env.sensing
+    flipped = sensing.flipped_fraction() if sensing is not None else np.zeros(len(seeds))
     affected = env.fire.affected()
     ceilings = score_ceiling(burned_in_flight, believed_at_start)
     summary = EvaluationSummary(
@@ -161,10 +171,12 @@ def evaluate(
                 belief_iou=float(ious[e]),
                 mean_age_burning_s=float(ages[e]),
                 score_ceiling=int(ceilings[e]),
+                false_alarms=int(sensing.false_alarms[e]) if sensing is not None else 0,
+                flipped_fraction=float(flipped[e]),
                 trajectory=None if path is None else path[e, : env.decisions[e] + 1],
                 final_burning=env.fire.burning[e].copy() if record else None,
                 final_affected=affected[e].copy() if record else None,
-                final_belief=env.belief.burning[e].copy() if record else None,
+                final_belief=env.believed()[e].copy() if record else None,
             )
         )
     return summary

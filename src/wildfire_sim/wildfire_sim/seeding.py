@@ -25,6 +25,8 @@ class Stream(IntEnum):
     """Per-aircraft policy randomness (random policy, planner restarts, exploration)."""
     RADIO = 3
     """Per-link message loss of the radio model (``wildfire_belief.radio``)."""
+    SENSOR = 4
+    """Per-aircraft sensor noise: which reports flip (``wildfire_agent.camera``)."""
 
 
 def generator(seed: int, stream: Stream, *index: int) -> np.random.Generator:

@@ -1,0 +1,131 @@
+"""Noisy sensing of a batch of episodes: the sensors' reports, the filtered team belief, the
+score under noise (docs/model.md, Realistic sensing).
+
+:class:`TeamSensing` is what :class:`~wildfire_learning.env.WildfireVecEnv` keeps when the
+sensor is not the paper's perfect disc (``--sensor camera``, or any ``--pixel-error``). Each
+decision:
+
+1. the team belief's clock ticks, and when the fire stepped its process term moves the
+   belief one fire step (``wildfire_belief.filtered_belief.LogOddsBelief.predict``);
+2. every aircraft's sensor reports the cells it sees: the four cameras
+   (``wildfire_agent.camera``) or the 100 m disc, each seen cell's true value flipped with
+   probability p, drawn from the aircraft's own stream (``seeding.Stream.SENSOR``), so an
+   aircraft reports the same whatever the batch;
+3. the belief fuses every report of every aircraft (exact Bayes in log-odds);
+4. the score: a cell scores when it is truly burning, was believed not burning before the
+   decision and is believed burning after it, **at most once per episode** (flicker cannot
+   be farmed). A cell that turns believed burning while truly not burning is a false alarm.
+
+The flipped fraction (reports that disagree with the truth over all reports) is kept per
+episode, to check the noise is what was asked for.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wildfire_agent import camera
+from wildfire_agent.dynamics import AircraftState
+from wildfire_belief.filtered_belief import LogOddsBelief
+from wildfire_belief.visits import visit_windows, window_values
+from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.seeding import Stream, generator
+
+SENSORS = ("disc", "camera")
+"""The paper's perfect 100 m disc, or the four cameras of the authors' follow-up."""
+
+
+class SensorWindows:
+    """What every aircraft's sensor sees this decision: windows of cells around it."""
+
+    def __init__(self, row0: np.ndarray, col0: np.ndarray, seen: np.ndarray, truth: np.ndarray):
+        self.row0, self.col0 = row0, col0
+        self.seen = seen
+        """(E, N, C, H, W) bool: cell seen by the aircraft's sensor C (cameras, or 1 disc)."""
+        self.truth = truth
+        """(E, N, H, W) bool: the true burning value of each window cell."""
+
+
+def sensor_windows(sensor: str, pose: AircraftState, truth: np.ndarray) -> SensorWindows:
+    """The windows of ``sensor`` for aircraft at ``pose`` (fields (E, N)) over (E, H, W)
+    ``truth``."""
+    if sensor == "camera":
+        cameras = camera.camera_windows(pose.x_m, pose.y_m, pose.heading_rad, pose.bank_steps)
+        values = camera.window_values(truth, cameras).astype(bool)
+        return SensorWindows(cameras.row0, cameras.col0, cameras.seen, values)
+    disc = visit_windows(pose.x_m, pose.y_m)
+    values = window_values(truth, disc).astype(bool)
+    return SensorWindows(disc.row0, disc.col0, disc.visited[:, :, None], values)
+
+
+class TeamSensing:
+    """Noisy reports and the filtered team belief of ``num_envs`` episodes of ``n`` aircraft."""
+
+    def __init__(
+        self, sensor: str, pixel_error: float, num_envs: int, n: int, preburn_steps: int
+    ) -> None:
+        self.sensor = sensor
+        self.pixel_error = pixel_error
+        self.n = n
+        self.preburn_steps = preburn_steps
+        self.belief = LogOddsBelief(num_envs, pixel_error)
+        shape = (num_envs, GRID_SIZE, GRID_SIZE)
+        self.scored = np.zeros(shape, dtype=bool)
+        """Cells that have scored this episode (each scores at most once)."""
+        self.false_alarms = np.zeros(num_envs, dtype=np.int64)
+        self.reports = np.zeros(num_envs, dtype=np.int64)
+        self.flipped = np.zeros(num_envs, dtype=np.int64)
+        self.rngs: list[list[np.random.Generator]] = [[] for _ in range(num_envs)]
+
+    def reset(
+        self, env_ids: np.ndarray, seeds: np.ndarray, ignition: np.ndarray, fuel: np.ndarray
+    ) -> None:
+        """Start over: the belief from the ignition seed, spread over the pre-burn (the team
+        knows the episode's rules, not its draws); fresh sensor streams."""
+        self.belief.reset(env_ids, ignition, fuel, self.preburn_steps)
+        self.scored[env_ids] = False
+        self.false_alarms[env_ids] = 0
+        self.reports[env_ids] = 0
+        self.flipped[env_ids] = 0
+        for e, seed in zip(env_ids.tolist(), seeds.tolist(), strict=True):
+            self.rngs[e] = [generator(seed, Stream.SENSOR, k) for k in range(self.n)]
+
+    def sense(
+        self, active: np.ndarray, pose: AircraftState, truth: np.ndarray, fire_stepped: np.ndarray
+    ) -> np.ndarray:
+        """One decision of the ``active`` episodes (see the module docstring); returns the
+        team reward (E,) int64: cells that scored now."""
+        envs = np.flatnonzero(active)
+        belief = self.belief
+        before = belief.believed()
+        belief.tick(envs)
+        stepped = np.flatnonzero(fire_stepped & active)
+        if stepped.size:
+            belief.predict(stepped)
+        windows = sensor_windows(self.sensor, pose, truth)
+        seen = windows.seen[envs]
+        rngs = [rng for e in envs.tolist() for rng in self.rngs[e]]
+        reported = camera.noisy_reports(windows.truth[envs], seen, rngs, self.pixel_error)
+        index = np.nonzero(seen)  # the reports, in the order the noise was drawn
+        k, aircraft, _, i, j = index
+        env = envs[k]
+        cell = (windows.row0[env, aircraft] + i) * GRID_SIZE + windows.col0[env, aircraft] + j
+        value = reported[index]
+        wrong = value != windows.truth[env, aircraft, i, j]
+        self.reports += np.bincount(env, minlength=len(active))
+        self.flipped += np.bincount(env[wrong], minlength=len(active))
+        belief.update(env, cell, value)
+        after = belief.believed()
+        changed = ~before & after & active[:, None, None]
+        truth = truth.astype(bool)
+        newly = changed & truth & ~self.scored
+        self.scored |= newly
+        self.false_alarms += (changed & ~truth).sum(axis=(1, 2))
+        return newly.sum(axis=(1, 2)).astype(np.int64)
+
+    def flipped_fraction(self) -> np.ndarray:
+        """Reports that disagreed with the truth, over all reports, per episode."""
+        return self.flipped / np.maximum(self.reports, 1)
+
+
+__all__ = ["SENSORS", "SensorWindows", "TeamSensing", "sensor_windows"]

@@ -1,0 +1,69 @@
+"""Noisy sensing in the environment: the noise asked for, the score counted once, the batch
+never changing an episode, the paper's disc untouched."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from wildfire_learning.env import EnvConfig, WildfireVecEnv
+from wildfire_learning.errors import LearningError
+from wildfire_learning.evaluate import evaluate
+from wildfire_learning.vec_policies import make_vec_policy
+
+
+def fly(config: EnvConfig, seeds: list[int], decisions: int) -> tuple[WildfireVecEnv, int]:
+    env = WildfireVecEnv(config, len(seeds))
+    env.reset(seeds)
+    rng = np.random.default_rng(3)
+    total = 0
+    for _ in range(decisions):
+        total += int(env.step(rng.integers(0, 2, size=(len(seeds), 2))).team_reward.sum())
+    return env, total
+
+
+def test_the_paper_disc_keeps_the_shared_belief() -> None:
+    env = WildfireVecEnv(EnvConfig(), 1)
+    assert env.sensing is None
+
+
+@pytest.mark.parametrize("sensor", ["camera", "disc"])
+def test_the_fraction_of_flipped_reports_is_the_pixel_error(sensor: str) -> None:
+    config = EnvConfig(sensor=sensor, pixel_error=0.1, observation="none", reward="belief")
+    env, _ = fly(config, [11, 12], 600)
+    assert env.sensing is not None
+    assert env.sensing.reports.min() > 50_000
+    assert np.all(np.abs(env.sensing.flipped_fraction() - 0.1) <= 0.01)
+
+
+def test_a_cell_scores_at_most_once_and_only_while_burning() -> None:
+    config = EnvConfig(sensor="camera", pixel_error=0.1, observation="none", reward="belief")
+    env, total = fly(config, [21, 22], 900)
+    assert env.sensing is not None
+    scored = env.sensing.scored
+    assert total == int(env.scores.sum()) == int(scored.sum()) > 0
+    # Every scored cell burned at some point: it is burning or burnt out now.
+    assert not (scored & ~env.fire.affected()).any()
+
+
+def test_an_episode_under_noise_does_not_depend_on_its_batch() -> None:
+    config = EnvConfig(sensor="camera", pixel_error=0.1, max_duration_s=40.0)
+    policy = make_vec_policy("rh-belief")
+    together = evaluate(policy, config, [31, 32, 33]).to_json()
+    alone = evaluate(make_vec_policy("rh-belief"), config, [32]).to_json()
+    assert together["scores"][1] == alone["scores"][0]
+    assert together["false_alarms"][1] == alone["false_alarms"][0]
+
+
+@pytest.mark.parametrize(
+    ("changes", "names"),
+    [
+        ({"sensor": "radar"}, "sensor: expected one of"),
+        ({"sensor": "camera", "pixel_error": 0.5}, "pixel error"),
+        ({"pixel_error": -0.1}, "pixel error"),
+        ({"sensor": "camera", "observation": "obs"}, "observation approach"),
+    ],
+)
+def test_bad_sensing_settings_name_what_was_expected(changes: dict, names: str) -> None:
+    with pytest.raises(LearningError, match=names):
+        EnvConfig(**changes).validate()
