@@ -91,6 +91,10 @@ def test_eval_json(tmp_path):
         (["report", "--comm", "power=5"], "keys range, loss, delay"),
         (["train", "--comm", "range=300,loss=x"], "--comm"),
         (["run", "--comm", "range=300", "--realtime"], "lockstep only"),
+        (["eval", "--sensor", "radar"], "--sensor"),
+        (["eval", "--sensor", "camera", "--pixel-error", "0.5"], "[0, 0.5)"),
+        (["eval", "--sensor", "camera", "--policy", "obs"], "observation approach"),
+        (["run", "--sensor", "camera"], "noisy sensing flies in"),
     ],
 )
 def test_bad_input_is_one_line_with_status_2(args, needle):

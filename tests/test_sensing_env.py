@@ -67,3 +67,11 @@ def test_an_episode_under_noise_does_not_depend_on_its_batch() -> None:
 def test_bad_sensing_settings_name_what_was_expected(changes: dict, names: str) -> None:
     with pytest.raises(LearningError, match=names):
         EnvConfig(**changes).validate()
+
+
+def test_under_noise_no_policy_scores_above_the_ceiling() -> None:
+    config = EnvConfig(sensor="camera", pixel_error=0.1, max_duration_s=30.0)
+    summary = evaluate(make_vec_policy("rh-belief"), config, [41, 42]).to_json()
+    assert all(
+        0 < s <= c for s, c in zip(summary["scores"], summary["score_ceilings"], strict=True)
+    )

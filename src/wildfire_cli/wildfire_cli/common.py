@@ -123,6 +123,49 @@ def add_comm_argument(parser: argparse.ArgumentParser | argparse._ActionsContain
     )
 
 
+SENSORS = ("disc", "camera")
+CAMERA_PIXEL_ERROR = 0.1
+"""The camera's pixel error unless given (the disc's is 0: the paper's perfect sensor)."""
+
+
+def pixel_error(text: str) -> float:
+    """argparse type: a flip probability in [0, 0.5) (at 0.5 a report says nothing)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number in [0, 0.5), got {text!r}") from None
+    if not 0.0 <= value < 0.5:
+        raise argparse.ArgumentTypeError(f"expected a number in [0, 0.5), got {text}")
+    return value
+
+
+def add_sensor_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--sensor disc|camera`` and ``--pixel-error P`` (``sensor_settings`` reads them)."""
+    parser.add_argument(
+        "--sensor",
+        choices=SENSORS,
+        default="disc",
+        help="disc (the paper's: every cell within 100 m, perfectly; the default) or camera "
+        "(four body-fixed cameras; the team then keeps a probability of burning per cell)",
+    )
+    parser.add_argument(
+        "--pixel-error",
+        type=pixel_error,
+        default=None,
+        metavar="P",
+        help=f"probability that a report flips (default {CAMERA_PIXEL_ERROR:g} for camera, "
+        "0 for disc)",
+    )
+
+
+def sensor_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """``EnvConfig`` fields of ``add_sensor_arguments``."""
+    error = args.pixel_error
+    if error is None:
+        error = CAMERA_PIXEL_ERROR if args.sensor == "camera" else 0.0
+    return {"sensor": args.sensor, "pixel_error": error}
+
+
 def add_episode_arguments(
     parser: argparse.ArgumentParser, default_seed: int, seed_help: str
 ) -> None:
@@ -151,6 +194,7 @@ def add_episode_arguments(
     )
     add_duration_argument(parser)
     add_comm_argument(parser)
+    add_sensor_arguments(parser)
 
 
 def add_max_wind_argument(parser: argparse.ArgumentParser | argparse._ActionsContainer) -> None:
@@ -227,6 +271,7 @@ def scenario_settings(args: argparse.Namespace) -> dict[str, Any]:
         "wind": args.wind,
         "max_duration_s": args.duration,
         "comm": args.comm,
+        **sensor_settings(args),
     }
     if args.max_wind is not None:
         settings["max_wind"] = args.max_wind

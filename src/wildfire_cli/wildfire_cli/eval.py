@@ -79,7 +79,9 @@ def run(args: argparse.Namespace) -> int:
     vec_policy = make_vec_policy(args.policy, device=device)  # a bad name or file fails now
     if args.card and args.policy in FILELESS_POLICIES:
         raise UserError(f"--card: policy {args.policy} has no model card (a Q-network has)")
-    config = EnvConfig(shapes=(shape.value,), **scenario_settings(args)).validate()
+    config = EnvConfig(
+        shapes=(shape.value,), observation=vec_policy.observation, **scenario_settings(args)
+    ).validate()
     seeds = list(range(args.seed, args.seed + args.episodes))
     if args.workers > 1 or args.ray is not None:
         job = EvalJob(args.policy, config, tuple(seeds), bool(args.png), str(device))
@@ -123,6 +125,8 @@ def run(args: argparse.Namespace) -> int:
         "wind": config.wind,
         "max_wind": config.max_wind,
         "comm": str(config.comm),
+        "sensor": config.sensor,
+        "pixel_error": config.pixel_error,
     }
     if args.card:
         from wildfire_learning.export import record_evaluation
@@ -142,6 +146,12 @@ def run(args: argparse.Namespace) -> int:
             f"{result['mean_age_burning_s']:.1f} s, "
             f"{result['seconds_per_decision'] * 1e3:.2f} ms per decision"
         )
+        if config.noisy:
+            print(
+                f"{config.sensor} sensing, pixel error {config.pixel_error:g}: "
+                f"{result['false_alarms_mean']:.1f} false alarms per episode, "
+                f"{result['flipped_fraction']:.1%} of the reports flipped"
+            )
         if args.png:
             print(f"wrote {args.png}")
     return 0

@@ -209,7 +209,16 @@ def build_spec(args: argparse.Namespace) -> Any:
     policy = resolve_policy(args.policy)
     if args.respawn and not args.realtime:
         raise UserError("--respawn: only with --realtime (lockstep runs are exact replays)")
-    config = EnvConfig(shapes=(shape.value,), **scenario_settings(args)).validate()
+    # The scenario only (no environment flies here): observe nothing.
+    config = EnvConfig(
+        shapes=(shape.value,), observation="none", **scenario_settings(args)
+    ).validate()
+    if config.noisy:
+        raise UserError(
+            f"--sensor {config.sensor} --pixel-error {config.pixel_error:g}: noisy sensing flies "
+            "in `wildfire eval`, `report` and `train` so far (the nodes' camera reports are not "
+            "built yet)"
+        )
     if not config.comm.ideal and args.realtime:
         raise UserError(f"--comm {config.comm}: limited radio links fly in lockstep only so far")
     scenario = draw_scenario(args.seed, config)

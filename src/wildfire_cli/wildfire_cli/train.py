@@ -18,10 +18,12 @@ from pathlib import Path
 from typing import Any
 
 from wildfire_cli.common import (
+    CAMERA_PIXEL_ERROR,
     UserError,
     add_device_argument,
     comm_model,
     non_negative_int,
+    pixel_error,
     positive_float,
     positive_int,
     print_json,
@@ -47,6 +49,8 @@ def add_config_options(parser: argparse.ArgumentParser) -> None:
         common: dict[str, Any] = {"dest": spec.name, "default": None, "help": help_text}
         if "choices" in meta:
             parser.add_argument(option, choices=meta["choices"], **common)
+        elif meta.get("pixel_error"):
+            parser.add_argument(option, type=pixel_error, metavar="P", **common)
         elif meta.get("comm"):
             # Checked as --comm is everywhere, stored as its canonical text.
             parser.add_argument(
@@ -133,12 +137,16 @@ def _baseline(text: str | None) -> float | None:
 
 
 def given_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The :class:`TrainConfig` values given on the command line (lists read as tuples)."""
-    return {
-        spec.name: tuple(given) if isinstance(given, list) else given
+    """The :class:`TrainConfig` values given on the command line (lists read as tuples); a
+    camera without ``--pixel-error`` gets the camera's usual error, as everywhere."""
+    given = {
+        spec.name: tuple(value) if isinstance(value, list) else value
         for spec in fields(TrainConfig)
-        if (given := getattr(args, spec.name)) is not None
+        if (value := getattr(args, spec.name)) is not None
     }
+    if given.get("sensor") == "camera" and "pixel_error" not in given:
+        given["pixel_error"] = CAMERA_PIXEL_ERROR
+    return given
 
 
 def build_config(args: argparse.Namespace, saved: dict[str, Any] | None) -> TrainConfig:

@@ -124,6 +124,10 @@ def evaluate(
     observations = env.reset(np.asarray(seeds))
     policy.reset(env)
     believed_at_start = env.believed().copy()
+    if env.sensing is not None:
+        # Under noise a cell believed burning at the start can lose that belief and score
+        # later (once): every cell that burns during the flight counts toward the ceiling.
+        believed_at_start[:] = False
     burned_in_flight = env.truth.astype(bool)
     trajectory = [np.stack([env.aircraft.x_m, env.aircraft.y_m], axis=-1)] if record else []
     policy_seconds = 0.0

@@ -115,11 +115,13 @@ def fingerprint(
     max_wind: float,
     duration_s: float,
     comm: CommModel = IDEAL,
+    sensor: str = "disc",
+    pixel_error: float = 0.0,
 ) -> dict[str, Any]:
     """What an evaluation depends on, beyond the code: equal fingerprints, equal results.
 
-    The radio model joins it only when the links are not ideal: stored results of the
-    paper's shared belief keep their fingerprints."""
+    The radio model and the sensor join it only when they are not the paper's (ideal links,
+    the perfect disc): stored results of the paper's world keep their fingerprints."""
     identity: dict[str, Any] = {
         # Keyed "controller", the word for a policy before it had one word: stored results
         # (docs/results/evaluations) stay reusable.
@@ -130,16 +132,27 @@ def fingerprint(
     }
     if not comm.ideal:
         identity["comm"] = str(comm)
+    if sensor != "disc" or pixel_error:
+        identity["sensor"] = sensor
+        identity["pixel_error"] = pixel_error
     if policy_file is not None:
         identity["policy_sha256"] = hashlib.sha256(policy_file.read_bytes()).hexdigest()
     return identity
 
 
 def evaluation_path(
-    out_dir: Path, policy: str, scenario: Scenario, comm: CommModel = IDEAL
+    out_dir: Path,
+    policy: str,
+    scenario: Scenario,
+    comm: CommModel = IDEAL,
+    sensor: str = "disc",
+    pixel_error: float = 0.0,
 ) -> Path:
-    """Where an evaluation is stored: ``<policy>_<scenario>[_comm-<model>].json``."""
+    """Where an evaluation is stored:
+    ``<policy>_<scenario>[_comm-<model>][_<sensor>-p<error>].json``."""
     suffix = "" if comm.ideal else "_comm-" + str(comm).replace(",", "_").replace("=", "")
+    if sensor != "disc" or pixel_error:
+        suffix += f"_{sensor}-p{pixel_error:g}"
     return out_dir / "evaluations" / f"{policy_id(policy)}_{scenario.key}{suffix}.json"
 
 

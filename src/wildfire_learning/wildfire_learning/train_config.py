@@ -105,6 +105,15 @@ class TrainConfig:
         "(each aircraft observes its own belief replica and heard peers).",
         comm=True,
     )
+    sensor: str = hyperparameter(
+        "disc",
+        "``disc`` (the paper's perfect 100 m sensor) or ``camera`` (four cameras, noisy: a "
+        "filtered belief).",
+        choices=("disc", "camera"),
+    )
+    pixel_error: float = hyperparameter(
+        0.0, "Probability that a report flips (0.1 is the camera's usual).", pixel_error=True
+    )
     episode_seconds: float = hyperparameter(
         EPISODE_DEFAULTS.duration_s, "Time limit of an episode (training and evaluation)."
     )
@@ -200,6 +209,8 @@ class TrainConfig:
             max_wind=self.max_wind,
             max_duration_s=self.episode_seconds,
             comm=self.comm_model(),
+            sensor=self.sensor,
+            pixel_error=self.pixel_error,
         ).validate()
 
     def comm_model(self) -> CommModel:
