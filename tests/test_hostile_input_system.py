@@ -5,8 +5,11 @@ episode still equals ``wildfire eval`` and every kind of bad message is counted.
 from __future__ import annotations
 
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -125,23 +128,49 @@ def test_lockstep_under_a_flood_equals_evaluate(
         assert counted["dropped"] >= sum(counted[key] for key in keys)
 
 
-def test_limited_links_under_a_flood_equal_evaluate(
-    fuzzer: subprocess.Popen[str], dds_env: dict[str, str]
+def test_limited_links_fly_on_without_the_ground_station_under_a_flood(
+    fuzzer: subprocess.Popen[str], dds_env: dict[str, str], tmp_path: Path
 ) -> None:
-    """Radio messages that lie (another aircraft's index, NaN poses, windows off the pose,
-    truncated bytes, catch-up replies that do not inflate, future ticks) are dropped and
-    counted, and never change a decision."""
-    seed, duration, comm = 4, 12.0, "range=300,loss=0.2"
-    summary = run(
-        ["--policy", "rh", "--seed", str(seed), "--duration", str(duration), "--fast",
-         "--comm", comm],
-        dds_env,
-    )  # fmt: skip
+    """Under limited radio links no decision depends on the belief aggregator: killed by its
+    pid mid-flight, the run flies on and still equals eval. Meanwhile radio messages that lie
+    (another aircraft's index, NaN poses, windows off the pose, truncated bytes, catch-up
+    replies that do not inflate, future ticks) are dropped and counted."""
+    comm, seed, duration = "range=300,loss=0.2", 2000012, 60.0
+    logs = tmp_path / "logs"
+    command = [WILDFIRE, "run", "--policy", "rh", "--comm", comm, "--seed", str(seed),
+               "--duration", str(duration), "--fast", "--json", "--log-dir", str(logs)]  # fmt: skip
+    run_process = subprocess.Popen(
+        command, env=dds_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        # Kill the aggregator by its pid a second into the flight.
+        deadline = time.monotonic() + 90
+        fire_log = logs / "fire_simulator.log"
+        while "tick 0" not in (fire_log.read_text() if fire_log.exists() else ""):
+            assert time.monotonic() < deadline and run_process.poll() is None, "no start"
+            time.sleep(0.05)
+        time.sleep(1.0)
+        found = subprocess.run(
+            ["pgrep", "-f", "wildfire_belief.belief_aggregator_node"],
+            capture_output=True, text=True,
+        )  # fmt: skip
+        pids = [int(p) for p in found.stdout.split()]
+        assert pids, "no aggregator process"
+        for pid in pids:
+            os.kill(pid, signal.SIGKILL)
+        stdout, stderr = run_process.communicate(timeout=150)
+    finally:
+        if run_process.poll() is None:
+            run_process.kill()
+    assert run_process.returncode == 0, stderr
+    summary = json.loads(stdout)
+    assert "belief_aggregator" in summary["lost_nodes"]
     config = EnvConfig(
         n_aircraft=2, shapes=("circular",), max_duration_s=duration, comm=CommModel.parse(comm)
     )
-    reference = evaluate(make_vec_policy("rh"), config, [seed]).episodes[0]
-    assert summary["score"] == reference.score
+    assert summary["score"] == evaluate(make_vec_policy("rh"), config, [seed]).episodes[0].score
+    # The ground station's score stopped mid-flight; the union's did not.
+    assert 0 < summary["aggregator_score"] < summary["score"]
     counted = drops(summary, "uav0/agent")
     for reason in ("impersonation", "malformed", "out of range", "future"):
         assert counted.get(f"/uav1/radio {reason}", 0) >= 1, counted

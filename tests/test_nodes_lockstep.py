@@ -73,7 +73,8 @@ def run_lockstep(rt: Any, nodes: list[Any], timeout: float = 90.0) -> None:
 
 
 @pytest.mark.parametrize(
-    ("policy", "n", "duration"), [("rh", 2, 30.0), ("rh-paper", 2, 30.0), ("random", 3, 20.0)]
+    ("policy", "n", "duration"),
+    [("rh", 2, 30.0), ("rh-paper", 2, 30.0), ("rh-belief", 2, 20.0), ("random", 3, 20.0)],
 )
 def test_lockstep_nodes_equal_the_environment(
     ros_runtime: Any, policy: str, n: int, duration: float

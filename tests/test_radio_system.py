@@ -1,13 +1,13 @@
-"""Limited radio links in the distributed system: lockstep equals ``wildfire eval --comm``,
-the run flies on when the ground station dies, and the radio stays under 1 KB/s an aircraft."""
+"""Limited radio links in the distributed system: lockstep equals ``wildfire eval --comm``
+(catch-ups after an outage included), and pose and visits stay under 1 KB/s an aircraft.
+(A ground station killed mid-flight, under a flood of lying radio messages:
+``test_hostile_input_system.py``.)"""
 
 from __future__ import annotations
 
 import json
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -55,7 +55,12 @@ def test_lockstep_under_limited_links_equals_evaluate(
     assert summary["comm"] == comm
     assert summary["score"] == expected.score
     assert summary["decisions"] == expected.decisions
-    assert 0 < summary["radio_bytes_per_s_per_aircraft"] <= RADIO_BYTES_PER_S_LIMIT
+    # Pose and visits within the budget; the catch-ups after the outage come on top.
+    visits_and_pose = (
+        summary["radio_bytes_per_s_per_aircraft"]
+        - summary["radio_catch_up_bytes_per_s_per_aircraft"]
+    )
+    assert 0 < visits_and_pose <= RADIO_BYTES_PER_S_LIMIT
     links = summary["radio_links"]
     assert all(links[f"uav{k}"]["catch_ups"] >= 1 for k in range(n))
     assert all(0 < links[f"uav{k}"]["convergence_s_max"] < 2.0 for k in range(n))
@@ -78,43 +83,3 @@ def test_lockstep_under_limited_links_equals_evaluate(
     # Such a bag does not rebuild into transitions: the aircraft decided on their replicas.
     with pytest.raises(LearningError, match="limited radio links"):
         read_recording(bag, need_belief=True)
-
-
-def test_the_run_flies_on_when_the_ground_station_is_killed(
-    tmp_path: Path, dds_env: dict[str, str]
-) -> None:
-    comm, seed, n, duration = "range=300,loss=0.2", 2000012, 2, 60.0
-    logs = tmp_path / "logs"
-    run = subprocess.Popen(
-        [WILDFIRE, "run", "--policy", "rh", "--aircraft", str(n), "--comm", comm,
-         "--seed", str(seed), "--duration", str(duration), "--fast", "--json",
-         "--log-dir", str(logs)],
-        env=dds_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    try:
-        # Kill the aggregator by its pid a second into the flight.
-        deadline = time.monotonic() + 90
-        fire_log = logs / "fire_simulator.log"
-        while "tick 0" not in (fire_log.read_text() if fire_log.exists() else ""):
-            assert time.monotonic() < deadline and run.poll() is None, "the run never started"
-            time.sleep(0.05)
-        time.sleep(1.0)
-        out = subprocess.run(
-            ["pgrep", "-f", "wildfire_belief.belief_aggregator_node"],
-            capture_output=True, text=True,
-        )  # fmt: skip
-        pids = [int(p) for p in out.stdout.split()]
-        assert pids, "no aggregator process"
-        for pid in pids:
-            subprocess.run(["kill", f"-{signal.SIGKILL.value}", str(pid)], check=False)
-        stdout, stderr = run.communicate(timeout=150)
-    finally:
-        if run.poll() is None:
-            run.kill()
-    assert run.returncode == 0, stderr
-    summary = json.loads(stdout)
-    assert "belief_aggregator" in summary["lost_nodes"]
-    expected = reference("rh", n, comm, seed, duration)
-    assert summary["score"] == expected.score
-    # The ground station's score stopped mid-flight; the union's did not.
-    assert 0 < summary["aggregator_score"] < summary["score"]

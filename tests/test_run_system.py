@@ -80,7 +80,6 @@ def obs_policy(tmp_path_factory: pytest.TempPathFactory) -> Path:
     [
         ("rh", 3, 30.0),
         ("rh-paper", 3, 20.0),
-        ("rh-belief", 2, 15.0),
         ("random", 2, 30.0),
         ("obs", 2, 20.0),
     ],

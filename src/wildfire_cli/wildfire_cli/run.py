@@ -293,6 +293,11 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         )
         if monitor.radio_links:
             result["radio_links"] = {f"uav{k}": v for k, v in sorted(monitor.radio_links.items())}
+            catch_up = sum(v.get("catch_up_bytes_sent", 0.0) for v in monitor.radio_links.values())
+            # Of those bytes, the catch-up sections (rare bursts after a link returns).
+            result["radio_catch_up_bytes_per_s_per_aircraft"] = (
+                catch_up / flight_s / spec.n_aircraft
+            )
     if monitor.fire is not None and belief is not None:
         result["belief_iou"] = float(belief_iou(belief[None], monitor.fire[None])[0])
         if ages is not None:
