@@ -63,7 +63,8 @@ def test_lockstep_under_limited_links_equals_evaluate(
     assert 0 < visits_and_pose <= RADIO_BYTES_PER_S_LIMIT
     links = summary["radio_links"]
     assert all(links[f"uav{k}"]["catch_ups"] >= 1 for k in range(n))
-    assert all(0 < links[f"uav{k}"]["convergence_s_max"] < 2.0 for k in range(n))
+    # A round trip is 0.6 s at delay 2; a lost digest or reply is asked again 0.9 s later.
+    assert all(0 < links[f"uav{k}"]["convergence_s_max"] < 5.0 for k in range(n))
     # Every flight path equals the environment's, and the radio messages are in the bag.
     states: dict[str, dict[int, np.ndarray]] = {}
     radio_ticks: dict[int, list[int]] = {}
