@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import time
+import tracemalloc
 from typing import Any
 
 import numpy as np
@@ -52,9 +53,16 @@ def bench_fire(
     }
 
 
-def _decisions_per_s(observation: str, num_envs: int, decisions: int) -> float:
+def _decisions_per_s(
+    observation: str, num_envs: int, decisions: int, sensor: str = "disc"
+) -> float:
     config = EnvConfig(
-        n_aircraft=2, observation=observation, reward=observation, shapes=("circular", "arc")
+        n_aircraft=2,
+        observation=observation,
+        reward=observation,
+        shapes=("circular", "arc"),
+        sensor=sensor,
+        pixel_error=0.1 if sensor == "camera" else 0.0,
     )
     env = WildfireVecEnv(config, num_envs)
     env.reset(np.arange(num_envs))
@@ -76,12 +84,43 @@ def bench_env(decisions: int = 300, batch_sizes: tuple[int, ...] = (32, 64, 128)
     fire steps and episode resets; not the policy.
     """
     result: dict[str, Any] = {}
-    for observation, key in (("belief", "decisions_per_s"), ("obs", "decisions_per_s_obs")):
-        rates = {b: _decisions_per_s(observation, b, decisions) for b in batch_sizes}
+    cases = (
+        ("belief", "disc", "decisions_per_s"),
+        ("obs", "disc", "decisions_per_s_obs"),
+        ("belief", "camera", "decisions_per_s_camera"),
+    )
+    for observation, sensor, key in cases:
+        rates = {b: _decisions_per_s(observation, b, decisions, sensor) for b in batch_sizes}
         best = max(rates, key=rates.__getitem__)
         result[key] = rates[best]
         result[f"{key}_batch_size"] = best
+    # The camera world (four cameras, noisy reports, filtered belief) against the disc.
+    result["camera_over_disc"] = result["decisions_per_s_camera"] / result["decisions_per_s"]
+    for sensor in ("disc", "camera"):
+        result[f"bytes_per_env_{sensor}"] = env_bytes(sensor, batch_sizes[0])
     return result
+
+
+def env_bytes(sensor: str, num_envs: int) -> float:
+    """Memory one belief-observing environment holds (numpy arrays traced by tracemalloc,
+    2 aircraft, after a few decisions), for the disc or the camera world."""
+    tracemalloc.start()
+    try:
+        config = EnvConfig(
+            observation="belief",
+            reward="belief",
+            sensor=sensor,
+            pixel_error=0.1 if sensor == "camera" else 0.0,
+        )
+        env = WildfireVecEnv(config, num_envs)
+        env.reset(np.arange(num_envs))
+        for _ in range(5):
+            env.step(np.zeros((num_envs, 2), dtype=np.int64))
+        held, _ = tracemalloc.get_traced_memory()
+        del env
+    finally:
+        tracemalloc.stop()
+    return held / num_envs
 
 
 def capture_plans(
