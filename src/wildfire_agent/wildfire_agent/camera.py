@@ -69,7 +69,7 @@ from typing import NamedTuple
 import numpy as np
 
 from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS
-from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
+from wildfire_belief.visits import disc_window, window_cells
 
 ALTITUDE_M = 200.0
 """Flight altitude h above the ground."""
@@ -94,8 +94,6 @@ WINDOW_HALF = 30
 CAMERA_WINDOW = 2 * WINDOW_HALF + 1
 """Edge of the footprint window in cells."""
 
-_OFFSETS = np.arange(-WINDOW_HALF, WINDOW_HALF + 1)
-_SPAN = np.arange(CAMERA_WINDOW)
 _TAN_HALF_X = SENSOR_X_MM / 2.0 / FOCAL_LENGTH_MM
 _TAN_HALF_Y = SENSOR_Y_MM / 2.0 / FOCAL_LENGTH_MM
 
@@ -182,16 +180,9 @@ def camera_windows(
     if np.any(np.abs(bank_steps) > MAX_BANK_STEPS):
         # A negative index would silently wrap to another bank's normals.
         raise ValueError(f"bank_steps must lie in [-{MAX_BANK_STEPS}, {MAX_BANK_STEPS}]")
-    row = np.floor(y_m / CELL_SIZE_M).astype(np.int64)
-    col = np.floor(x_m / CELL_SIZE_M).astype(np.int64)
-    rows = row[..., None] + _OFFSETS  # (..., 61)
-    cols = col[..., None] + _OFFSETS
-    dy = (rows + 0.5) * CELL_SIZE_M - y_m[..., None]
-    dx = (cols + 0.5) * CELL_SIZE_M - x_m[..., None]
-    within = dy[..., :, None] ** 2 + dx[..., None, :] ** 2 <= RANGE_M**2
-    row_inside = (rows >= 0) & (rows < GRID_SIZE)
-    col_inside = (cols >= 0) & (cols < GRID_SIZE)
-    usable = within & row_inside[..., :, None] & col_inside[..., None, :]  # (..., 61, 61)
+    # The cells within range and on the map, the same window rule as the visits'.
+    window = disc_window(x_m, y_m, WINDOW_HALF, RANGE_M)
+    dx, dy, usable = window.dx, window.dy, window.disc  # (..., 61), (..., 61), (..., 61, 61)
 
     normals = _EDGE_NORMALS[bank_steps + MAX_BANK_STEPS]  # (..., 4, 4, 3)
     cos_h = np.cos(heading_rad)[..., None, None]
@@ -212,7 +203,7 @@ def camera_windows(
     column_dx = dx[..., None, None, :]
     seen = (column_dx >= lower[..., None]) & (column_dx <= upper[..., None])
     seen &= usable[..., None, :, :]
-    return CameraWindows(row0=row - WINDOW_HALF, col0=col - WINDOW_HALF, seen=seen)
+    return CameraWindows(row0=window.row0, col0=window.col0, seen=seen)
 
 
 def camera_cells(x_m: float, y_m: float, heading_rad: float, bank_steps: int) -> list[np.ndarray]:
@@ -233,17 +224,7 @@ def window_values(grid: np.ndarray, windows: CameraWindows) -> np.ndarray:
 
     ``windows`` has leading dims (E, N). This is the truth :func:`noisy_reports` flips.
     """
-    rows = windows.row0[..., None] + _SPAN  # (E, N, 61)
-    cols = windows.col0[..., None] + _SPAN
-    inside = ((rows >= 0) & (rows < GRID_SIZE))[..., :, None]
-    inside = inside & ((cols >= 0) & (cols < GRID_SIZE))[..., None, :]
-    env = np.arange(grid.shape[0])[:, None, None, None]
-    values = grid[
-        env,
-        np.clip(rows, 0, GRID_SIZE - 1)[..., :, None],
-        np.clip(cols, 0, GRID_SIZE - 1)[..., None, :],
-    ]
-    return np.where(inside, values, 0).astype(grid.dtype)
+    return window_cells(grid, windows.row0, windows.col0, CAMERA_WINDOW)
 
 
 def noisy_reports(

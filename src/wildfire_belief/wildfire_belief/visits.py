@@ -23,9 +23,6 @@ WINDOW_HALF = 10
 VISIT_WINDOW = 2 * WINDOW_HALF + 1
 """Edge of the visit window in cells."""
 
-_OFFSETS = np.arange(-WINDOW_HALF, WINDOW_HALF + 1)
-_SPAN = np.arange(VISIT_WINDOW)
-
 
 class VisitWindows(NamedTuple):
     """Visit windows of a batch of aircraft (leading dims of the poses, e.g. (E, N))."""
@@ -38,20 +35,44 @@ class VisitWindows(NamedTuple):
     """(..., 21, 21) bool: cell visited (centre within 100 m and inside the map)."""
 
 
-def visit_windows(x_m: np.ndarray, y_m: np.ndarray) -> VisitWindows:
-    """The visit windows of aircraft at (x, y) (any matching shapes)."""
+class DiscWindow(NamedTuple):
+    """A square window of cells centred on each aircraft's cell, and the disc in it."""
+
+    row0: np.ndarray
+    """Row of the window's southern edge (may be outside the map), int64."""
+    col0: np.ndarray
+    """Column of the window's western edge (may be outside the map), int64."""
+    dx: np.ndarray
+    """(..., side): east offset (m) of each window column's cell centres from the aircraft."""
+    dy: np.ndarray
+    """(..., side): north offset (m) of each window row's cell centres from the aircraft."""
+    disc: np.ndarray
+    """(..., side, side) bool: cell centre within the radius and the cell inside the map."""
+
+
+def disc_window(x_m: np.ndarray, y_m: np.ndarray, half: int, radius_m: float) -> DiscWindow:
+    """The ``2 half + 1`` cells square window around aircraft at (x, y) (any matching
+    shapes), with the cells whose centre lies within ``radius_m``, inside the map. (The
+    visits use 10 cells and 100 m; the cameras' range 30 cells and 300 m.)"""
     x_m, y_m = np.asarray(x_m, dtype=np.float64), np.asarray(y_m, dtype=np.float64)
+    offsets = np.arange(-half, half + 1)
     row = np.floor(y_m / CELL_SIZE_M).astype(np.int64)
     col = np.floor(x_m / CELL_SIZE_M).astype(np.int64)
-    rows = row[..., None] + _OFFSETS  # (..., 21)
-    cols = col[..., None] + _OFFSETS
+    rows = row[..., None] + offsets  # (..., side)
+    cols = col[..., None] + offsets
     dy = (rows + 0.5) * CELL_SIZE_M - y_m[..., None]
     dx = (cols + 0.5) * CELL_SIZE_M - x_m[..., None]
-    within = dy[..., :, None] ** 2 + dx[..., None, :] ** 2 <= VISIT_RADIUS_M**2
+    within = dy[..., :, None] ** 2 + dx[..., None, :] ** 2 <= radius_m**2
     row_inside = (rows >= 0) & (rows < GRID_SIZE)
     col_inside = (cols >= 0) & (cols < GRID_SIZE)
-    visited = within & row_inside[..., :, None] & col_inside[..., None, :]
-    return VisitWindows(row0=row - WINDOW_HALF, col0=col - WINDOW_HALF, visited=visited)
+    disc = within & row_inside[..., :, None] & col_inside[..., None, :]
+    return DiscWindow(row - half, col - half, dx, dy, disc)
+
+
+def visit_windows(x_m: np.ndarray, y_m: np.ndarray) -> VisitWindows:
+    """The visit windows of aircraft at (x, y) (any matching shapes)."""
+    window = disc_window(x_m, y_m, WINDOW_HALF, VISIT_RADIUS_M)
+    return VisitWindows(row0=window.row0, col0=window.col0, visited=window.disc)
 
 
 def visited_cells(windows: VisitWindows) -> tuple[np.ndarray, np.ndarray]:
@@ -78,17 +99,26 @@ def visited_cells(windows: VisitWindows) -> tuple[np.ndarray, np.ndarray]:
     return key // cells_per_env, key % cells_per_env
 
 
-def window_values(grid: np.ndarray, windows: VisitWindows) -> np.ndarray:
-    """Values of a (E, H, W) grid in each visit window, (E, N, 21, 21); 0 outside the map."""
-    # row0/col0 are the windows' south-west cells: the window spans row0 .. row0 + 20.
-    rows = windows.row0[..., None] + _SPAN  # (E, N, 21)
-    cols = windows.col0[..., None] + _SPAN
+def window_cells(grid: np.ndarray, row0: np.ndarray, col0: np.ndarray, side: int) -> np.ndarray:
+    """Values of a (E, H, W) grid in square windows of ``side`` cells whose south-west cells
+    are (row0, col0), each (E, N): (E, N, side, side); 0 outside the map."""
+    span = np.arange(side)
+    rows = row0[..., None] + span  # (E, N, side)
+    cols = col0[..., None] + span
+    inside = ((rows >= 0) & (rows < GRID_SIZE))[..., :, None]
+    inside = inside & ((cols >= 0) & (cols < GRID_SIZE))[..., None, :]
     env = np.arange(grid.shape[0])[:, None, None, None]
     values = grid[
         env,
         np.clip(rows, 0, GRID_SIZE - 1)[..., :, None],
         np.clip(cols, 0, GRID_SIZE - 1)[..., None, :],
     ]
+    return np.where(inside, values, 0).astype(grid.dtype)
+
+
+def window_values(grid: np.ndarray, windows: VisitWindows) -> np.ndarray:
+    """Values of a (E, H, W) grid in each visit window, (E, N, 21, 21); 0 where not visited."""
+    values = window_cells(grid, windows.row0, windows.col0, VISIT_WINDOW)
     return np.where(windows.visited, values, 0).astype(grid.dtype)
 
 
@@ -96,8 +126,11 @@ __all__ = [
     "VISIT_RADIUS_M",
     "VISIT_WINDOW",
     "WINDOW_HALF",
+    "DiscWindow",
     "VisitWindows",
+    "disc_window",
     "visit_windows",
     "visited_cells",
+    "window_cells",
     "window_values",
 ]
