@@ -261,6 +261,24 @@ def noisy_reports(
     truth, or any other aircraft, so an aircraft's reports for a given generator state are
     bit-identical whatever the batch.
     """
+    seen = np.asarray(seen, dtype=bool)
+    index, values = report_values(truth, seen, rngs, p)
+    reports = np.zeros(seen.shape, dtype=bool)
+    reports[index] = values
+    return reports
+
+
+def report_values(
+    truth: np.ndarray,
+    seen: np.ndarray,
+    rngs: Sequence[np.random.Generator],
+    p: float = PIXEL_ERROR,
+) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """The reports of :func:`noisy_reports` as a list: ``np.nonzero(seen)`` (aircraft,
+    camera, row, column, in the order the uniforms are drawn) and the reported values.
+
+    What the environment fuses: no (..., 4, 61, 61) array of reports is built.
+    """
     if not 0.0 <= p <= 1.0:
         raise ValueError(f"p must lie in [0, 1], got {p}")
     seen = np.asarray(seen, dtype=bool)
@@ -268,14 +286,16 @@ def noisy_reports(
     num_aircraft = int(np.prod(lead, dtype=np.int64))
     if len(rngs) != num_aircraft:
         raise ValueError(f"expected {num_aircraft} generators (one per aircraft), got {len(rngs)}")
-    counts = seen.reshape(num_aircraft, -1).sum(axis=1)
+    # C order walks aircraft, camera, row, column: each aircraft's cells form one block, in
+    # the order its uniforms are drawn.
+    index = np.nonzero(seen)
+    aircraft = np.ravel_multi_index(index[: len(lead)], lead) if lead else np.zeros(0, np.int64)
+    counts = np.bincount(aircraft, minlength=num_aircraft) if lead else np.array([index[0].size])
     uniforms = [rng.random(int(count)) for rng, count in zip(rngs, counts, strict=True)]
     flips = np.concatenate(uniforms) < p if uniforms else np.zeros(0, dtype=bool)
-    reports = np.asarray(truth, dtype=bool)[..., None, :, :] & seen
-    # Boolean indexing walks ``seen`` in C order: aircraft, camera, row, column, the order in
-    # which the uniforms were concatenated.
-    reports[seen] ^= flips
-    return reports
+    truth = np.asarray(truth, dtype=bool)
+    cells = (*index[: len(lead)], *index[len(lead) + 1 :])
+    return index, truth[cells] ^ flips
 
 
 __all__ = [
@@ -297,5 +317,6 @@ __all__ = [
     "camera_cells",
     "camera_windows",
     "noisy_reports",
+    "report_values",
     "window_values",
 ]

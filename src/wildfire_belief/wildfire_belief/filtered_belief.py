@@ -422,10 +422,12 @@ class LogOddsBelief(_ReportClock):
         flat, value = self._flat_reports(env, cell, value)
         if flat.size == 0:
             return
-        cells, inverse = np.unique(flat, return_inverse=True)
-        # Net reports "burning" minus reports "not burning" per touched cell.
-        net = np.bincount(inverse, weights=np.where(value, 1.0, -1.0), minlength=cells.size)
         log_odds = self.log_odds.reshape(-1)
+        # Net reports "burning" minus reports "not burning" per cell (a dense count: cheaper
+        # than sorting the reports). A cell whose reports cancel keeps its log-odds.
+        net = np.bincount(flat, weights=np.where(value, 1.0, -1.0), minlength=log_odds.size)
+        cells = np.flatnonzero(net)
+        net = net[cells]
         # p = 0: a report is certain, so the majority fixes the cell (2 bounds, then clipped).
         weight = 2.0 * self.max_log_odds if self.p == 0.0 else self.report_log_odds
         step = (np.sign(net) if self.p == 0.0 else net) * weight

@@ -105,13 +105,12 @@ class TeamSensing:
         windows = sensor_windows(self.sensor, pose, truth)
         seen = windows.seen[envs]
         rngs = [rng for e in envs.tolist() for rng in self.rngs[e]]
-        reported = camera.noisy_reports(windows.truth[envs], seen, rngs, self.pixel_error)
-        index = np.nonzero(seen)  # the reports, in the order the noise was drawn
+        truth_windows = windows.truth[envs]
+        index, value = camera.report_values(truth_windows, seen, rngs, self.pixel_error)
         k, aircraft, _, i, j = index
         env = envs[k]
         cell = (windows.row0[env, aircraft] + i) * GRID_SIZE + windows.col0[env, aircraft] + j
-        value = reported[index]
-        wrong = value != windows.truth[env, aircraft, i, j]
+        wrong = value != truth_windows[k, aircraft, i, j]
         self.reports += np.bincount(env, minlength=len(active))
         self.flipped += np.bincount(env[wrong], minlength=len(active))
         belief.update(env, cell, value)
