@@ -22,6 +22,8 @@ episode, to check the noise is what was asked for.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from wildfire_agent import camera
@@ -35,15 +37,17 @@ SENSORS = ("disc", "camera")
 """The paper's perfect 100 m disc, or the four cameras of the authors' follow-up."""
 
 
-class SensorWindows:
+class SensorWindows(NamedTuple):
     """What every aircraft's sensor sees this decision: windows of cells around it."""
 
-    def __init__(self, row0: np.ndarray, col0: np.ndarray, seen: np.ndarray, truth: np.ndarray):
-        self.row0, self.col0 = row0, col0
-        self.seen = seen
-        """(E, N, C, H, W) bool: cell seen by the aircraft's sensor C (cameras, or 1 disc)."""
-        self.truth = truth
-        """(E, N, H, W) bool: the true burning value of each window cell."""
+    row0: np.ndarray
+    """(E, N) row of each window's south-west cell (may lie off the map)."""
+    col0: np.ndarray
+    """(E, N) column of that cell."""
+    seen: np.ndarray
+    """(E, N, C, H, W) bool: cell seen by the aircraft's sensor C (cameras, or 1 disc)."""
+    truth: np.ndarray
+    """(E, N, H, W) bool: the true burning value of each window cell."""
 
 
 def sensor_windows(sensor: str, pose: AircraftState, truth: np.ndarray) -> SensorWindows:
