@@ -185,9 +185,16 @@ def collect_results(
                 base.comm,
                 base.sensor,
                 base.pixel_error,
+                base.wind_filter,
             )
             path = evaluation_path(
-                args.out, policy, scenario, base.comm, base.sensor, base.pixel_error
+                args.out,
+                policy,
+                scenario,
+                base.comm,
+                base.sensor,
+                base.pixel_error,
+                base.wind_filter,
             )
             stored = None if args.fresh else load_cached(path, identity)
             label = f"{policy_label(policy)} on {scenario.title}"

@@ -120,6 +120,9 @@ class EnvConfig:
     """``disc`` (the paper's: every cell within 100 m) or ``camera`` (four cameras)."""
     pixel_error: float = 0.0
     """Probability that a report flips (``--pixel-error``; 0.1 is the camera's default)."""
+    wind_filter: bool = False
+    """Under noisy sensing, estimate the wind with a particle filter for the belief's
+    process term (``--wind-filter``)."""
 
     @property
     def noisy(self) -> bool:
@@ -152,6 +155,8 @@ class EnvConfig:
             raise LearningError(
                 f"pixel error: expected a number in [0, 0.5), got {self.pixel_error}"
             )
+        if self.wind_filter and not self.pixel_error > 0.0:
+            raise LearningError("wind filter: expected noisy reports (a pixel error > 0)")
         if self.noisy and not self.comm.ideal:
             raise LearningError("sensor: noisy sensing under limited radio links is not built yet")
         if self.noisy and self.observation == Approach.OBS:
@@ -233,7 +238,12 @@ class WildfireVecEnv:
         self.sensing = None
         if config.noisy:
             self.sensing = TeamSensing(
-                config.sensor, config.pixel_error, num_envs, n, config.preburn_steps
+                config.sensor,
+                config.pixel_error,
+                num_envs,
+                n,
+                config.preburn_steps,
+                config.wind_filter,
             )
 
     # ------------------------------------------------------------------ reset

@@ -117,6 +117,7 @@ def fingerprint(
     comm: CommModel = IDEAL,
     sensor: str = "disc",
     pixel_error: float = 0.0,
+    wind_filter: bool = False,
 ) -> dict[str, Any]:
     """What an evaluation depends on, beyond the code: equal fingerprints, equal results.
 
@@ -135,6 +136,8 @@ def fingerprint(
     if sensor != "disc" or pixel_error:
         identity["sensor"] = sensor
         identity["pixel_error"] = pixel_error
+    if wind_filter:
+        identity["wind_filter"] = True
     if policy_file is not None:
         identity["policy_sha256"] = hashlib.sha256(policy_file.read_bytes()).hexdigest()
     return identity
@@ -147,12 +150,13 @@ def evaluation_path(
     comm: CommModel = IDEAL,
     sensor: str = "disc",
     pixel_error: float = 0.0,
+    wind_filter: bool = False,
 ) -> Path:
     """Where an evaluation is stored:
     ``<policy>_<scenario>[_comm-<model>][_<sensor>-p<error>].json``."""
     suffix = "" if comm.ideal else "_comm-" + str(comm).replace(",", "_").replace("=", "")
     if sensor != "disc" or pixel_error:
-        suffix += f"_{sensor}-p{pixel_error:g}"
+        suffix += f"_{sensor}-p{pixel_error:g}" + ("-wind" if wind_filter else "")
     return out_dir / "evaluations" / f"{policy_id(policy)}_{scenario.key}{suffix}.json"
 
 

@@ -18,6 +18,10 @@ decision:
 
 The flipped fraction (reports that disagree with the truth over all reports) is kept per
 episode, to check the noise is what was asked for.
+
+With ``wind_filter`` each team also runs a particle filter over the wind
+(``wildfire_belief.wind_filter``, 40 mean-field fire models weighted by the reports): at
+every fire step the belief's process term takes the filter's wind estimate.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from wildfire_agent import camera
 from wildfire_agent.dynamics import AircraftState
 from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_belief.visits import visit_windows, window_values
+from wildfire_belief.wind_filter import NUM_PARTICLES, WindFilter
 from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.seeding import Stream, generator
 
@@ -66,7 +71,13 @@ class TeamSensing:
     """Noisy reports and the filtered team belief of ``num_envs`` episodes of ``n`` aircraft."""
 
     def __init__(
-        self, sensor: str, pixel_error: float, num_envs: int, n: int, preburn_steps: int
+        self,
+        sensor: str,
+        pixel_error: float,
+        num_envs: int,
+        n: int,
+        preburn_steps: int,
+        wind_filter: bool = False,
     ) -> None:
         self.sensor = sensor
         self.pixel_error = pixel_error
@@ -80,6 +91,8 @@ class TeamSensing:
         self.reports = np.zeros(num_envs, dtype=np.int64)
         self.flipped = np.zeros(num_envs, dtype=np.int64)
         self.rngs: list[list[np.random.Generator]] = [[] for _ in range(num_envs)]
+        self.wind_filter = wind_filter
+        self.filters: list[WindFilter | None] = [None] * num_envs
 
     def reset(
         self, env_ids: np.ndarray, seeds: np.ndarray, ignition: np.ndarray, fuel: np.ndarray
@@ -91,8 +104,13 @@ class TeamSensing:
         self.false_alarms[env_ids] = 0
         self.reports[env_ids] = 0
         self.flipped[env_ids] = 0
-        for e, seed in zip(env_ids.tolist(), seeds.tolist(), strict=True):
+        for i, (e, seed) in enumerate(zip(env_ids.tolist(), seeds.tolist(), strict=True)):
             self.rngs[e] = [generator(seed, Stream.SENSOR, k) for k in range(self.n)]
+            if self.wind_filter:
+                rng = generator(seed, Stream.WIND)
+                particles = WindFilter(NUM_PARTICLES, rng, self.pixel_error)
+                particles.reset(ignition[i], fuel[i], self.preburn_steps)
+                self.filters[e] = particles
 
     def sense(
         self, active: np.ndarray, pose: AircraftState, truth: np.ndarray, fire_stepped: np.ndarray
@@ -104,6 +122,11 @@ class TeamSensing:
         before = belief.believed()
         belief.tick(envs)
         stepped = np.flatnonzero(fire_stepped & active)
+        for e in stepped.tolist() if self.wind_filter else ():
+            particles = self.filters[e]
+            assert particles is not None
+            particles.step()
+            belief.set_wind([e], particles.wind_estimate())
         if stepped.size:
             belief.predict(stepped)
         windows = sensor_windows(self.sensor, pose, truth)
@@ -118,6 +141,12 @@ class TeamSensing:
         self.reports += np.bincount(env, minlength=len(active))
         self.flipped += np.bincount(env[wrong], minlength=len(active))
         belief.update(env, cell, value)
+        if self.wind_filter:
+            for e in envs.tolist():
+                particles = self.filters[e]
+                assert particles is not None
+                mine = env == e
+                particles.observe(cell[mine], value[mine])
         after = belief.believed()
         changed = ~before & after & active[:, None, None]
         truth = truth.astype(bool)

@@ -114,6 +114,9 @@ class TrainConfig:
     pixel_error: float = hyperparameter(
         0.0, "Probability that a report flips (0.1 is the camera's usual).", pixel_error=True
     )
+    wind_filter: bool = hyperparameter(
+        False, "Under noisy sensing, estimate the wind for the belief's process term."
+    )
     episode_seconds: float = hyperparameter(
         EPISODE_DEFAULTS.duration_s, "Time limit of an episode (training and evaluation)."
     )
@@ -211,6 +214,7 @@ class TrainConfig:
             comm=self.comm_model(),
             sensor=self.sensor,
             pixel_error=self.pixel_error,
+            wind_filter=self.wind_filter,
         ).validate()
 
     def comm_model(self) -> CommModel:

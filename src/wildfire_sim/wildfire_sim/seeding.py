@@ -27,6 +27,8 @@ class Stream(IntEnum):
     """Per-link message loss of the radio model (``wildfire_belief.radio``)."""
     SENSOR = 4
     """Per-aircraft sensor noise: which reports flip (``wildfire_agent.camera``)."""
+    WIND = 5
+    """The team's wind filter: its particles' winds and resampling."""
 
 
 def generator(seed: int, stream: Stream, *index: int) -> np.random.Generator:
