@@ -3,6 +3,8 @@ never changing an episode, the paper's disc untouched."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -75,3 +77,15 @@ def test_under_noise_no_policy_scores_above_the_ceiling() -> None:
     assert all(
         0 < s <= c for s, c in zip(summary["scores"], summary["score_ceilings"], strict=True)
     )
+
+
+def test_the_wind_filter_feeds_its_estimate_to_the_belief_and_keeps_episodes_apart() -> None:
+    config = EnvConfig(sensor="camera", pixel_error=0.1, wind_filter=True, max_duration_s=8.0)
+    together = evaluate(make_vec_policy("rh-belief"), config, [51, 52]).to_json()
+    alone = evaluate(make_vec_policy("rh-belief"), config, [52]).to_json()
+    assert together["scores"][1] == alone["scores"][0]
+    env, _ = fly(replace(config, observation="none", reward="belief"), [53], 60)
+    assert env.sensing is not None
+    assert np.any(env.sensing.belief.wind[0] != 0.0)  # two fire steps: the estimate is in
+    with pytest.raises(LearningError, match="wind filter"):
+        EnvConfig(sensor="camera", pixel_error=0.0, wind_filter=True).validate()
