@@ -276,7 +276,7 @@ def test_radio_messages_that_lie_are_dropped_with_their_reason() -> None:
         with pytest.raises(RejectedMessage) as error:
             checked_radio(msg, sender, 10)
         assert error.value.reason is reason
-    for lie in (message._replace(row0=message.row0 + 1), message._replace(bits=message.bits[:-1])):
+    for lie in (message._replace(x_m=5.0), message._replace(bits=message.bits[:-1])):
         with pytest.raises(RejectedMessage) as error:
             window_of(lie)
         assert error.value.reason is DropReason.MALFORMED
@@ -313,12 +313,10 @@ def test_catch_up_sections_read_back_and_a_reply_that_lies_is_malformed() -> Non
         rng.random(700) < 0.5,
     )  # fmt: skip
     key, burning = replica.key[0, 0], replica.burning[0, 0]
-    reply = make_reply(2, key, burning, np.zeros(100, dtype=np.uint16))
+    reply = make_reply(5, key, burning, np.zeros(100, dtype=np.uint16))
     assert reply.cells.size == 700
     digest = Digest(0, digest_of(key))
-    message = RadioMessage(
-        400, 1, 1.0, 2.0, 0.5, 0, 0, 0, np.zeros(3, np.uint8), (digest,), (reply,)
-    )
+    message = RadioMessage(400, 1, 1.0, 2.0, 0.5, 0, np.zeros(3, np.uint8), (digest,), (reply,))
     data = radio_to_bytes(message)
     assert len(data) < 700 * 7  # compressed
     decoded = radio_from_bytes(data)

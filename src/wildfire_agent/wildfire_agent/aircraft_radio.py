@@ -46,19 +46,13 @@ from wildfire_sim.grid import GRID_SIZE
 def window_of(message: RadioMessage) -> VisitWindow:
     """The visit window a radio message reports, checked against its pose.
 
-    The visited cells follow from the position; a message whose origin or number of bits
-    does not fit them is refused (malformed), as is a catch-up reply with cells off the map,
+    The window and its visited cells follow from the position; a message whose number of
+    bits does not fit them is refused (malformed), as is a catch-up reply with cells off the map,
     visits of no aircraft or visits after the message: none of it enters a replica.
     """
     windows = visit_windows(np.array([message.x_m]), np.array([message.y_m]))
     row0, col0 = int(windows.row0[0]), int(windows.col0[0])
     visited = windows.visited[0]
-    if (message.row0, message.col0) != (row0, col0):
-        raise RejectedMessage(
-            DropReason.MALFORMED,
-            f"window origin ({message.row0}, {message.col0}) does not fit the pose ({row0}, "
-            f"{col0})",
-        )
     count = int(visited.sum())
     if message.bits.size != (count + 7) // 8:
         raise RejectedMessage(
@@ -158,8 +152,6 @@ class AircraftRadio:
             float(state.y_m[0]),
             float(state.heading_rad[0]),
             int(state.bank_steps[0]),
-            window.row0,
-            window.col0,
             pack_burning(np.asarray(window.burning, bool)[np.asarray(window.visited, bool)]),
             digests,
             replies,

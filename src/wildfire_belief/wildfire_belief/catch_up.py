@@ -8,9 +8,10 @@ it) asks for what it missed:
    the oldest of the block's last visits in its replica (:func:`digest_of`);
 2. the peer, once it hears the digest, answers in its next message with the **missing
    visits**: every cell of its own replica whose visit is newer than the digest's tick for
-   the cell's block, with its key (:func:`missing_visits`). Every cell the asker holds older
-   than the peer is among them (its tick is at least its block's oldest), so after the merge
-   the asker's replica holds everything the peer's held when it answered;
+   the cell's block, with its key, but for the asker's own visits (:func:`missing_visits`).
+   Every cell the asker holds older than the peer is among them (its tick is at least its
+   block's oldest; a newer visit of the asker's own is already in its replica), so after the
+   merge the asker's replica holds everything the peer's held when it answered;
 3. the asker merges them like any visit (last writer wins), once it hears the reply.
 
 Digest and reply ride in the ordinary radio messages, under the same radio model; when
@@ -49,21 +50,24 @@ def digest_of(key: np.ndarray) -> np.ndarray:
 
 
 def missing_visits(
-    key: np.ndarray, burning: np.ndarray, digest: np.ndarray
+    key: np.ndarray, burning: np.ndarray, digest: np.ndarray, asker: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Cells of a replica (H, W) newer than ``digest`` says the asker holds: flat cell
-    indices, their visit keys and burning values (in cell order)."""
+    """Cells of a replica (H, W) newer than ``digest`` says aircraft ``asker`` holds: flat
+    cell indices, their visit keys and burning values (in cell order). The asker's own
+    visits are left out: its replica merged each of them the moment it made it."""
     size = key.shape[-1]
     per_cell = np.repeat(
         np.repeat(digest.reshape(size // BLOCK, size // BLOCK), BLOCK, 0), BLOCK, 1
     )
-    newer = np.flatnonzero(key.reshape(-1) >> KEY_SHIFT > per_cell.reshape(-1))
-    return newer, key.reshape(-1)[newer], burning.reshape(-1)[newer]
+    flat = key.reshape(-1)
+    newer = (flat >> KEY_SHIFT > per_cell.reshape(-1)) & (flat & (KEY_AIRCRAFT - 1) != asker)
+    cells = np.flatnonzero(newer)
+    return cells, flat[cells], burning.reshape(-1)[cells]
 
 
 def make_reply(target: int, key: np.ndarray, burning: np.ndarray, digest: np.ndarray) -> Reply:
     """The reply to ``target``'s digest from a replica's (H, W) keys and burning values."""
-    cells, keys, values = missing_visits(key, burning, digest)
+    cells, keys, values = missing_visits(key, burning, digest, target)
     return Reply(
         target,
         cells.astype(np.uint16),

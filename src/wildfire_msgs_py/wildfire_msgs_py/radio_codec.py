@@ -9,21 +9,19 @@ offset   type   field
 0        u32    tick of the decision (stamp = tick x 0.1 s)
 4        u8     sender's aircraft index
 5        i8     bank in 5 degree steps
-6        i16    row of the visit window's south-west cell (may lie off the map)
-8        i16    column of that cell
-10       3 f64  x_m, y_m, heading_rad (exact: peers dead-reckon and build pairwise states
+6        3 f64  x_m, y_m, heading_rad (exact: peers dead-reckon and build pairwise states
                 from them)
-34       u8     catch-up sections: digests (high nibble) and replies (low nibble) that follow
-35       ...    the digests, then the replies (below)
+30       u8     catch-up sections: digests (high nibble) and replies (low nibble) that follow
+31       ...    the digests, then the replies (below)
 ...      bits   burning value of each visited cell, row-major over the window, packed 8 per
                 byte (``numpy.packbits``, most significant bit first), to the end
 =======  =====  ============================================================================
 
-Which cells of the 21 x 21 window are visited follows from the position (every cell whose
-centre lies within 100 m, inside the map), so only their burning bits travel: about 40 bytes
-for the ~314 cells of a full disc, 75 bytes in all, 91 with the message's CDR framing. The
-receiver recomputes the visited cells and checks the origin and the number of bits
-(``wildfire_agent.aircraft_radio``).
+The visit window and which of its cells are visited follow from the position (the 21 x 21
+cells around the aircraft's cell; every cell whose centre lies within 100 m, inside the map),
+so neither travels: only the visited cells' burning bits, about 40 bytes for the ~314 cells
+of a full disc, 71 bytes in all, 87 with the message's CDR framing. The receiver recomputes
+the window and checks the number of bits (``wildfire_agent.aircraft_radio``).
 
 Catch-up (rare: when a link returns after a gap) rides in the same messages:
 
@@ -48,8 +46,8 @@ import numpy as np
 from wildfire_msgs_py.codecs import _message
 from wildfire_msgs_py.errors import MessageFieldError
 
-HEADER = struct.Struct("<IBbhh3dB")
-"""tick, aircraft, bank_steps, row0, col0, x_m, y_m, heading_rad, sections."""
+HEADER = struct.Struct("<IBb3dB")
+"""tick, aircraft, bank_steps, x_m, y_m, heading_rad, sections."""
 MAX_TICK = 2**32 - 1
 DIGEST_BLOCKS = 100
 """Blocks of a digest: the 100 x 100 map in 10 x 10 blocks of 10 x 10 cells."""
@@ -88,8 +86,6 @@ class RadioMessage(NamedTuple):
     y_m: float
     heading_rad: float
     bank_steps: int
-    row0: int
-    col0: int
     bits: np.ndarray
     """Packed burning bits of the visited cells (uint8)."""
     digests: tuple[Digest, ...] = ()
@@ -113,8 +109,6 @@ def radio_to_bytes(message: RadioMessage) -> bytes:
             message.tick,
             message.aircraft,
             message.bank_steps,
-            message.row0,
-            message.col0,
             message.x_m,
             message.y_m,
             message.heading_rad,
@@ -185,7 +179,7 @@ def radio_from_bytes(data: bytes) -> RadioMessage:
     """The message in ``data``; :class:`MessageFieldError` when it is too short."""
     if len(data) < HEADER.size:
         raise MessageFieldError(f"radio message of {len(data)} bytes, expected >= {HEADER.size}")
-    tick, aircraft, bank, row0, col0, x, y, heading, sections = HEADER.unpack_from(data)
+    tick, aircraft, bank, x, y, heading, sections = HEADER.unpack_from(data)
     reader = _Reader(data, HEADER.size)
     digests = tuple(
         Digest(reader.take(1)[0], reader.array(DIGEST_BLOCKS, "<u2")) for _ in range(sections >> 4)
@@ -195,9 +189,7 @@ def radio_from_bytes(data: bytes) -> RadioMessage:
         target, count, size = struct.unpack("<BHH", reader.take(5))
         replies.append(_reply_from_payload(target, count, reader.take(size)))
     bits = np.frombuffer(data, dtype=np.uint8, offset=reader.offset).copy()
-    return RadioMessage(
-        tick, aircraft, x, y, heading, bank, row0, col0, bits, digests, tuple(replies)
-    )
+    return RadioMessage(tick, aircraft, x, y, heading, bank, bits, digests, tuple(replies))
 
 
 def radio_to_msg(message: RadioMessage, message_class: Any = None) -> Any:

@@ -135,10 +135,7 @@ def _radio(**changes: Any) -> Callable[[int], Any]:
     ``aircraft`` change is relative: the message then claims another aircraft's index)."""
 
     def build(k: int) -> Any:
-        # (50, 50) is the aircraft's cell: its window starts 10 cells south-west.
-        message = radio_codec.RadioMessage(
-            1, k, 500.0, 500.0, 0.0, 0, 40, 40, np.zeros(40, dtype=np.uint8)
-        )
+        message = radio_codec.RadioMessage(1, k, 500.0, 500.0, 0.0, 0, np.zeros(40, np.uint8))
         fields = dict(changes)
         message = message._replace(aircraft=k + fields.pop("aircraft", 0), **fields)
         return radio_codec.radio_to_msg(message)
@@ -149,7 +146,7 @@ def _radio(**changes: Any) -> Callable[[int], Any]:
 def _radio_bytes(data: bytes) -> Callable[[int], Any]:
     def build(_: int) -> Any:
         msg = radio_codec.radio_to_msg(
-            radio_codec.RadioMessage(1, 0, 0.0, 0.0, 0.0, 0, 0, 0, np.zeros(0, np.uint8))
+            radio_codec.RadioMessage(1, 0, 0.0, 0.0, 0.0, 0, np.zeros(0, np.uint8))
         )
         msg.data = data
         return msg
@@ -206,7 +203,7 @@ CASES: tuple[Case, ...] = (
     Case("radio: another aircraft", C.RADIO, _radio(aircraft=1)),
     Case("radio: NaN pose", C.RADIO, _radio(x_m=math.nan)),
     Case("radio: future", C.RADIO, _radio(tick=10**9)),
-    Case("radio: window off the pose", C.RADIO, _radio(row0=7)),
+    Case("radio: bits for another window", C.RADIO, _radio(bits=np.zeros(7, np.uint8))),
     Case("radio: truncated", C.RADIO, _radio_bytes(b"\x01\x00\x00")),
     Case("radio: reply bomb", C.RADIO, _radio_bomb),
 )
