@@ -366,8 +366,9 @@ class Launcher:
                 self.spec.n_aircraft,
                 self.spec.lockstep,
                 self.spec.seed,
-                union_score=self.spec.limited_links,
+                union_score=self.spec.lockstep,
                 shape=self.spec.shape,
+                radio=self.spec.limited_links,
             )
             self.executor.add_node(self.monitor)
             if self.spec.record_dir is not None:

@@ -7,13 +7,15 @@ deadline statistics and the episode status. In lockstep it is a reporter too
 (``wildfire_run``): it acknowledges tick ``k`` once it holds every aircraft's ``s_{k+1}``, so
 the recorder spinning in the same process never falls behind the system.
 
-Under limited radio links (``union_score``) no decision depends on the belief aggregator,
-which may die mid-run: the monitor then merges every aircraft's visits itself, with the
-aggregator's own functions, and its score, belief and ages are those of the union of visits
-(what a ground station with perfect links would know, and what ``wildfire eval`` scores). It
-acknowledges a tick only once that tick's visits are merged too. It also counts the bytes
-of every radio message as serialized on the wire (raw subscriptions: the CDR payload each
-reader receives), for the radio bandwidth per aircraft.
+In lockstep (``union_score``) the monitor also merges every aircraft's visits itself, with
+the aggregator's own functions, and its score, belief and ages are those of the union of
+visits (what ``wildfire eval`` scores), acknowledging a tick only once that tick's visits are
+merged too. So the run's score never waits on the aggregator's last messages, which travel
+on other topics than the end of the episode and may come late on a loaded machine; and
+under limited radio links, where no decision depends on the aggregator, it may die
+mid-run. With ``radio`` it also counts the bytes of every radio message as serialized on
+the wire (raw subscriptions: the CDR payload each reader receives), for the radio
+bandwidth per aircraft.
 
 Like every node it checks what it receives (:mod:`wildfire_msgs_py.wire_checks`), so the
 summary is built from the system's own messages; the dropped ones are counted.
@@ -70,6 +72,7 @@ class RunMonitorNode(Node):
         seed: int,
         union_score: bool = False,
         shape: str = "circular",
+        radio: bool = False,
     ) -> None:
         super().__init__("wildfire_run")
         self.seed = seed
@@ -122,6 +125,7 @@ class RunMonitorNode(Node):
         self.radio_messages = np.zeros(n_aircraft, dtype=np.int64)
         for k in range(n_aircraft if union_score else 0):
             subscribe(contract.VISIT, lambda msg, k=k: self.visit_callback(k, msg), k)
+        for k in range(n_aircraft if radio else 0):
             self.create_subscription(
                 get_message(contract.RADIO.type),
                 contract.RADIO.resolve(k),

@@ -283,9 +283,11 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
     }
     belief, ages = monitor.final_belief()
     if monitor.union is not None:
-        # Limited links: the score is the union's; the ground station's, if it flew to the end.
-        result["comm"] = spec.comm
+        # Lockstep: the score is the union's; the ground station's beside it (short of it when
+        # the aggregator died mid-flight under limited links).
         result["aggregator_score"] = round(monitor.ground_score)
+    if spec.limited_links:
+        result["comm"] = spec.comm
         flight_s = max(decisions, 1) / 10.0
         result["radio_bytes_per_s_per_aircraft"] = float(monitor.radio_bytes.mean() / flight_s)
         result["radio_bytes_per_message"] = float(
