@@ -56,7 +56,7 @@ from wildfire_msgs_py.wire_checks import (
 from wildfire_ros.node_support import contract_publisher, contract_subscription
 from wildfire_ros.runtime import Node, get_message, qos_profile
 from wildfire_sim.episode import DECISION_PERIOD_NS as TICK_NS
-from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, initial_fire
+from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, fire_step_tick, initial_fire
 
 REPORTER = "wildfire_run"
 MAX_STATUS_STEP = 2 * DECISIONS_PER_FIRE_STEP
@@ -152,6 +152,7 @@ class RunMonitorNode(Node):
         self.fire_stamp = self._newer(self.fire_stamp, stamp)
         self.fire = fire
         self.burned = self.fire.copy() if self.burned is None else self.burned | self.fire
+        self.report()
 
     def fuel_map_callback(self, msg: Any) -> None:
         self.fuel = fuel_grid_from_msg(msg)
@@ -245,7 +246,9 @@ class RunMonitorNode(Node):
     # --- lockstep -----------------------------------------------------------------------------
 
     def report(self) -> None:
-        """Acknowledge every announced tick whose next states are all in."""
+        """Acknowledge every announced tick whose next states are all in, with its visits and
+        its fire map (so the score and the ceiling, which the summary reads from them, are
+        complete once the episode is)."""
         if not self.lockstep or self.status is None or self.status.phase == "waiting":
             return
         while self.acked_tick < self.status.tick:
@@ -254,6 +257,8 @@ class RunMonitorNode(Node):
             if not final and any((tick + 1) * TICK_NS not in s for s in self.states):
                 return
             if self.union is not None and self.union.ticks < tick:
+                return
+            if self.fire_stamp < fire_step_tick(tick) * TICK_NS:
                 return
             self.acked_tick = tick
             self.ack_pub.publish(ack_to_msg(REPORTER, tick * TICK_NS))
