@@ -150,11 +150,18 @@ def test_limited_links_fly_on_without_the_ground_station_under_a_flood(
             assert time.monotonic() < deadline and run_process.poll() is None, "no start"
             time.sleep(0.05)
         time.sleep(1.0)
+        # This run's aggregator only (a test beside this one may run its own system).
         found = subprocess.run(
-            ["pgrep", "-f", "wildfire_belief.belief_aggregator_node"],
-            capture_output=True, text=True,
-        )  # fmt: skip
-        pids = [int(p) for p in found.stdout.split()]
+            ["ps", "-eww", "-o", "pid,ppid,args"], capture_output=True, text=True
+        ).stdout
+        rows = [line.split(None, 2) for line in found.splitlines()[1:]]
+        pids = [
+            int(row[0])
+            for row in rows
+            if len(row) == 3
+            and int(row[1]) == run_process.pid
+            and "wildfire_belief.belief_aggregator_node" in row[2]
+        ]
         assert pids, "no aggregator process"
         for pid in pids:
             os.kill(pid, signal.SIGKILL)
