@@ -79,7 +79,8 @@ def test_echo_pub_list_info_across_processes(dds_env: dict[str, str]) -> None:
         assert echo.returncode == 0, err
         assert out == "data: -0.0872\n---\n"
 
-        listing = wildfire(["topic", "list", "-t"], dds_env)
+        # Discovery across processes can take seconds on a busy machine: listen longer.
+        listing = wildfire(["topic", "list", "-t", "--spin-time", "6"], dds_env)
         assert listing.returncode == 0, listing.stderr
         assert "/wildfire/score [std_msgs/msg/Float64]" in listing.stdout.splitlines()
 
