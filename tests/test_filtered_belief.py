@@ -11,14 +11,16 @@ from wildfire_agent import camera
 from wildfire_belief.belief import AGE_CAP_TICKS
 from wildfire_belief.filtered_belief import (
     IGNITION_PROBABILITY,
-    KALMAN_INITIAL_VARIANCE,
-    KALMAN_Q,
-    KALMAN_R,
     PIXEL_ERROR,
-    KalmanBelief,
     LogOddsBelief,
     burn_survival,
     log_survival_kernel,
+)
+from wildfire_belief.kalman_belief import (
+    KALMAN_INITIAL_VARIANCE,
+    KALMAN_Q,
+    KALMAN_R,
+    KalmanBelief,
 )
 from wildfire_belief.wind_filter import WindFilter
 from wildfire_sim.fire import BatchedFire, FireParams, spread_kernel

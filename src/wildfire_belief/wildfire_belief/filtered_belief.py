@@ -82,7 +82,7 @@ decision's reports.
     majority wins and a tie leaves L unchanged. Reports then act as in the binary belief (a
     reported cell takes the reported value); the process term still moves unseen cells.
 
-:class:`KalmanBelief`
+:class:`wildfire_belief.kalman_belief.KalmanBelief`
     The follow-up's per-cell scalar Kalman filter on x in [0, 1]: the measurement of a
     report is z = its value (0 or 1) with variance R = 0.25, and each :meth:`predict` adds
     Q = 0.01 to the variance; the mean does not move (there is no fire model in it).
@@ -137,12 +137,6 @@ CLIP_REPORTS = 4.5
 """The log-odds bound, in reports: ``max_log_odds = CLIP_REPORTS * log((1 - p) / p)``."""
 P0_MAX_LOG_ODDS = math.log((1.0 - 1e-6) / 1e-6)
 """The log-odds bound when p = 0 (a report is certain)."""
-KALMAN_Q = 0.01
-"""Process variance the Kalman form adds per predict."""
-KALMAN_R = 0.25
-"""Measurement variance of one report in the Kalman form."""
-KALMAN_INITIAL_VARIANCE = 0.1
-"""Variance of every cell at reset (Kalman form): three true reports lift x = 0 above 0.5."""
 SPREAD_SCALE = 0.8
 """Factor on the stencil's ignition pressure in the process term (mean-field calibration)."""
 STENCIL_RADIUS = 2
@@ -153,7 +147,7 @@ def _logit(probability: float) -> float:
     return math.log(probability / (1.0 - probability))
 
 
-def _as_ids(env_ids: np.ndarray | list[int] | None, num_envs: int) -> np.ndarray:
+def as_ids(env_ids: np.ndarray | list[int] | None, num_envs: int) -> np.ndarray:
     if env_ids is None:
         return np.arange(num_envs)
     return np.atleast_1d(np.asarray(env_ids, dtype=np.int64))
@@ -226,7 +220,7 @@ def neighbour_pressure(probability: np.ndarray, kernel: np.ndarray) -> np.ndarra
     return total
 
 
-class _ReportClock:
+class ReportClock:
     """The belief clock and the tick of each cell's last report (shared by both forms).
 
     Arrays: ``now`` (E,) int64 current tick; ``last_report`` (E, H, W) int64.
@@ -249,7 +243,7 @@ class _ReportClock:
         if env_ids is None:
             self.now += 1
         else:
-            self.now[_as_ids(env_ids, self.num_envs)] += 1
+            self.now[as_ids(env_ids, self.num_envs)] += 1
 
     def age_ticks(self) -> np.ndarray:
         """Deciseconds since each cell was last reported, capped, (E, H, W) int64."""
@@ -285,7 +279,7 @@ class _ReportClock:
         return flat, value
 
 
-class LogOddsBelief(_ReportClock):
+class LogOddsBelief(ReportClock):
     """Exact-Bayes log-odds belief with a fire-model process term (see the module notes).
 
     Parameters
@@ -387,7 +381,7 @@ class LogOddsBelief(_ReportClock):
             knows the rules), so that the start belief spreads from the seed as the fire
             did before the aircraft came. 0 (the default) starts from the seed itself.
         """
-        ids = _as_ids(env_ids, self.num_envs)
+        ids = as_ids(env_ids, self.num_envs)
         ignition = np.asarray(ignition, dtype=bool)
         if fuel_mask is None:
             self.spent[ids] = 0.0
@@ -404,7 +398,7 @@ class LogOddsBelief(_ReportClock):
 
     def set_wind(self, env_ids: np.ndarray | list[int], wind: np.ndarray) -> None:
         """Use ``wind`` ((2,) or (k, 2)) in the process term of ``env_ids`` from now on."""
-        ids = _as_ids(env_ids, self.num_envs)
+        ids = as_ids(env_ids, self.num_envs)
         wind = np.broadcast_to(np.asarray(wind, dtype=np.float64), (ids.size, 2))
         self.wind[ids] = wind
         self._kernel[ids] = self.spread_scale * log_survival_kernel(wind, self.params)
@@ -442,7 +436,7 @@ class LogOddsBelief(_ReportClock):
         mean burn age (interpolated between whole ages), or the geometric hazard; the
         burnt-out mass stays. Only ``env_ids`` (all if None) move.
         """
-        ids = _as_ids(env_ids, self.num_envs)
+        ids = as_ids(env_ids, self.num_envs)
         whole = env_ids is None
         log_odds = self.log_odds if whole else self.log_odds[ids]
         spent = self.spent if whole else self.spent[ids]
@@ -490,111 +484,16 @@ class LogOddsBelief(_ReportClock):
         return self.log_odds > 0.0
 
 
-class KalmanBelief(_ReportClock):
-    """The follow-up's per-cell scalar Kalman filter on x in [0, 1] (see the module notes).
-
-    Parameters
-    ----------
-    num_envs : int
-        Environments in the batch.
-    q : float
-        Variance added to every cell per :meth:`predict`.
-    r : float
-        Measurement variance of one report.
-    grid_size : int
-        Cells per map edge.
-
-    Attributes
-    ----------
-    mean : (E, H, W) float64
-        The estimate x, in [0, 1].
-    variance : (E, H, W) float64
-        Its variance.
-    """
-
-    def __init__(
-        self,
-        num_envs: int,
-        q: float = KALMAN_Q,
-        r: float = KALMAN_R,
-        *,
-        grid_size: int = GRID_SIZE,
-    ) -> None:
-        super().__init__(num_envs, grid_size)
-        if not q >= 0 or not r > 0:
-            raise ValueError(f"q, r: expected q >= 0 and r > 0, got {q}, {r}")
-        self.q, self.r = float(q), float(r)
-        shape = (num_envs, grid_size, grid_size)
-        self.mean = np.zeros(shape)
-        self.variance = np.full(shape, KALMAN_INITIAL_VARIANCE)
-
-    def reset(
-        self,
-        env_ids: np.ndarray | list[int],
-        ignition: np.ndarray,
-        fuel_mask: np.ndarray | None = None,
-    ) -> None:
-        """Start over: ignition cells (with fuel, if ``fuel_mask`` is given) at
-        ``IGNITION_PROBABILITY``, others at 0, every variance ``KALMAN_INITIAL_VARIANCE``,
-        every age at the cap."""
-        ids = _as_ids(env_ids, self.num_envs)
-        ignition = np.asarray(ignition, dtype=bool)
-        if fuel_mask is not None:
-            ignition = ignition & np.asarray(fuel_mask, dtype=bool)
-        self.mean[ids] = np.where(ignition, IGNITION_PROBABILITY, 0.0)
-        self.variance[ids] = KALMAN_INITIAL_VARIANCE
-        self._reset_clock(ids)
-
-    def update(self, env: np.ndarray, cell: np.ndarray, value: np.ndarray) -> None:
-        """Apply a batch of reports, z = value, in information form.
-
-        Parameters
-        ----------
-        env, cell, value : (n,) arrays
-            As :meth:`LogOddsBelief.update`. n reports of a cell give
-            ``1/P' = 1/P + n/R`` and ``x' = P' (x/P + sum z / R)`` (the sequential scalar
-            updates' result), then x is clipped to [0, 1].
-        """
-        flat, value = self._flat_reports(env, cell, value)
-        if flat.size == 0:
-            return
-        cells, inverse = np.unique(flat, return_inverse=True)
-        count = np.bincount(inverse, minlength=cells.size)
-        total = np.bincount(inverse, weights=value.astype(np.float64), minlength=cells.size)
-        mean, variance = self.mean.reshape(-1), self.variance.reshape(-1)
-        information = 1.0 / variance[cells] + count / self.r
-        estimate = (mean[cells] / variance[cells] + total / self.r) / information
-        mean[cells] = np.clip(estimate, 0.0, 1.0)
-        variance[cells] = 1.0 / information
-
-    def predict(self, env_ids: np.ndarray | list[int] | None = None) -> None:
-        """Add Q to the variance of every cell (of every or the given environment)."""
-        if env_ids is None:
-            self.variance += self.q
-        else:
-            self.variance[_as_ids(env_ids, self.num_envs)] += self.q
-
-    def probability(self) -> np.ndarray:
-        """The estimate x as the probability of burning, (E, H, W) float64 (a copy)."""
-        return self.mean.copy()
-
-    def believed(self) -> np.ndarray:
-        """Believed burning (x > 0.5), (E, H, W) bool."""
-        return self.mean > 0.5
-
-
 __all__ = [
     "CLIP_REPORTS",
     "IGNITION_PROBABILITY",
-    "KALMAN_INITIAL_VARIANCE",
-    "KALMAN_Q",
-    "KALMAN_R",
     "P0_MAX_LOG_ODDS",
     "PIXEL_ERROR",
     "SPREAD_SCALE",
     "STENCIL_RADIUS",
-    "KalmanBelief",
     "LogOddsBelief",
+    "ReportClock",
+    "as_ids",
     "burn_survival",
     "log_survival_kernel",
     "neighbour_pressure",
