@@ -9,6 +9,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from wildfire_agent.aircraft_sensor import SENSORS
 from wildfire_belief.radio import CommError, CommModel
 from wildfire_sim.defaults import EPISODE_DEFAULTS
 
@@ -123,7 +124,6 @@ def add_comm_argument(parser: argparse.ArgumentParser | argparse._ActionsContain
     )
 
 
-SENSORS = ("disc", "camera")
 CAMERA_PIXEL_ERROR = 0.1
 """The camera's pixel error unless given (the disc's is 0: the paper's perfect sensor)."""
 

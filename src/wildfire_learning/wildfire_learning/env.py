@@ -47,7 +47,7 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from wildfire_agent import dynamics, pairwise
+from wildfire_agent import aircraft_sensor, dynamics, pairwise
 from wildfire_agent.approaches import (
     APPROACHES,
     Approach,
@@ -68,7 +68,7 @@ from wildfire_belief.radio import IDEAL, CommModel
 from wildfire_belief.visits import visit_windows, visited_cells, window_values
 from wildfire_learning.errors import LearningError
 from wildfire_learning.team_radio import TeamRadio
-from wildfire_learning.team_sensing import SENSORS, TeamSensing
+from wildfire_learning.team_sensing import TeamSensing
 from wildfire_sim.episode import (
     DECISIONS_PER_FIRE_STEP,
     EPISODE_DEFAULTS,
@@ -127,7 +127,7 @@ class EnvConfig:
     @property
     def noisy(self) -> bool:
         """Sensing other than the paper's perfect disc: a filtered (probability) belief."""
-        return self.sensor != "disc" or self.pixel_error > 0.0
+        return aircraft_sensor.noisy(self.sensor, self.pixel_error)
 
     def validate(self) -> EnvConfig:
         """Return self, or raise :class:`LearningError` naming the bad field."""
@@ -149,8 +149,10 @@ class EnvConfig:
             raise LearningError(f"duration: expected > 0 s, got {self.max_duration_s}")
         if self.preburn_steps < 0:
             raise LearningError(f"preburn_steps: expected >= 0, got {self.preburn_steps}")
-        if self.sensor not in SENSORS:
-            raise LearningError(f"sensor: expected one of {SENSORS}, got {self.sensor!r}")
+        if self.sensor not in aircraft_sensor.SENSORS:
+            raise LearningError(
+                f"sensor: expected one of {aircraft_sensor.SENSORS}, got {self.sensor!r}"
+            )
         if not 0.0 <= self.pixel_error < 0.5:
             raise LearningError(
                 f"pixel error: expected a number in [0, 0.5), got {self.pixel_error}"

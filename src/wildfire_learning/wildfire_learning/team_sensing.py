@@ -12,9 +12,13 @@ decision:
    probability p, drawn from the aircraft's own stream (``seeding.Stream.SENSOR``), so an
    aircraft reports the same whatever the batch;
 3. the belief fuses every report of every aircraft (exact Bayes in log-odds);
-4. the score: a cell scores when it is truly burning, was believed not burning before the
-   decision and is believed burning after it, **at most once per episode** (flicker cannot
-   be farmed). A cell that turns believed burning while truly not burning is a false alarm.
+4. the score (``wildfire_belief.filtered_aggregator.score_rule``): a cell scores when it is
+   truly burning, was believed not burning before the decision and is believed burning
+   after it, **at most once per episode** (flicker cannot be farmed). A cell that turns
+   believed burning while truly not burning is a false alarm.
+
+The belief aggregator node and the run monitor keep the same belief of one episode
+(``wildfire_belief.filtered_aggregator.FilteredAggregator``), in the same order.
 
 The flipped fraction (reports that disagree with the truth over all reports) is kept per
 episode, to check the noise is what was asked for.
@@ -32,14 +36,12 @@ import numpy as np
 
 from wildfire_agent import camera
 from wildfire_agent.dynamics import AircraftState
+from wildfire_belief.filtered_aggregator import score_rule
 from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_belief.visits import visit_windows, window_values
 from wildfire_belief.wind_filter import NUM_PARTICLES, WindFilter
 from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.seeding import Stream, generator
-
-SENSORS = ("disc", "camera")
-"""The paper's perfect 100 m disc, or the four cameras of the authors' follow-up."""
 
 
 class SensorWindows(NamedTuple):
@@ -147,12 +149,10 @@ class TeamSensing:
                 assert particles is not None
                 mine = env == e
                 particles.observe(cell[mine], value[mine])
-        after = belief.believed()
-        changed = ~before & after & active[:, None, None]
-        truth = truth.astype(bool)
-        newly = changed & truth & ~self.scored
+        after = belief.believed() & active[:, None, None]
+        newly, alarms = score_rule(before, after, truth.astype(bool), self.scored)
         self.scored |= newly
-        self.false_alarms += (changed & ~truth).sum(axis=(1, 2))
+        self.false_alarms += alarms.sum(axis=(1, 2))
         return newly.sum(axis=(1, 2)).astype(np.int64)
 
     def flipped_fraction(self) -> np.ndarray:
@@ -160,4 +160,4 @@ class TeamSensing:
         return self.flipped / np.maximum(self.reports, 1)
 
 
-__all__ = ["SENSORS", "SensorWindows", "TeamSensing", "sensor_windows"]
+__all__ = ["SensorWindows", "TeamSensing", "sensor_windows"]

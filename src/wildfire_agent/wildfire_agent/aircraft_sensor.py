@@ -1,0 +1,77 @@
+"""What one aircraft's sensor reports each decision, as windows of the map.
+
+The paper's perfect disc reports the truth of every cell within 100 m: one visit window.
+Under noisy sensing (``--sensor camera``, or any ``--pixel-error``) each sensor (the four
+cameras, or the disc) reports its seen cells, each flipped with probability p from the
+aircraft's own stream (``Stream.SENSOR``, aircraft k): one window per sensor, in camera
+order. The environment draws the same numbers for aircraft k of the same seed
+(``wildfire_learning.team_sensing``), so the reports on the wire are the environment's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wildfire_agent import camera
+from wildfire_agent.dynamics import AircraftState
+from wildfire_agent.errors import AgentConfigError
+from wildfire_belief.visits import visit_windows, window_values
+from wildfire_msgs_py.codecs import VisitWindow
+from wildfire_sim.seeding import Stream, generator
+
+SENSORS = ("disc", "camera")
+"""The paper's perfect 100 m disc, or the four cameras of the authors' follow-up."""
+
+
+def sensors_of(sensor: str) -> int:
+    """Report windows per aircraft and decision: one per camera, or the one disc."""
+    return camera.NUM_CAMERAS if sensor == "camera" else 1
+
+
+def check_sensing(sensor: str, pixel_error: float) -> None:
+    """Refuse an unknown sensor or a pixel error outside [0, 0.5) (one line)."""
+    if sensor not in SENSORS:
+        raise AgentConfigError(f"sensor {sensor!r}: expected one of {', '.join(SENSORS)}")
+    if not 0.0 <= pixel_error < 0.5:
+        raise AgentConfigError(f"pixel_error {pixel_error}: expected 0 <= p < 0.5")
+
+
+def noisy(sensor: str, pixel_error: float) -> bool:
+    """Whether the team keeps the filtered belief (anything but the perfect disc)."""
+    return sensor != "disc" or pixel_error > 0.0
+
+
+class AircraftSensor:
+    """Sensor of aircraft ``k`` in episode ``seed``."""
+
+    def __init__(self, sensor: str, pixel_error: float, seed: int, k: int) -> None:
+        check_sensing(sensor, pixel_error)
+        self.sensor = sensor
+        self.pixel_error = pixel_error
+        self.noisy = noisy(sensor, pixel_error)
+        self.rng = generator(seed, Stream.SENSOR, k) if self.noisy else None
+
+    def report(self, state: AircraftState, burning: np.ndarray) -> tuple[VisitWindow, ...]:
+        """The windows of one decision at ``state`` (fields (1,)) over the (H, W) truth.
+
+        Call it once per decision, in order: each call draws the decision's flips.
+        """
+        x, y = state.x_m[None], state.y_m[None]
+        if self.sensor == "camera":
+            windows = camera.camera_windows(x, y, state.heading_rad[None], state.bank_steps[None])
+            truth = camera.window_values(burning[None], windows)
+            seen = windows.seen
+        else:
+            disc = visit_windows(x, y)
+            windows, seen = disc, disc.visited[:, :, None]
+            truth = window_values(burning[None], disc)
+        row0, col0 = int(windows.row0[0, 0]), int(windows.col0[0, 0])
+        if self.rng is None:  # the perfect disc: the truth itself
+            return (VisitWindow(row0, col0, seen[0, 0, 0], truth[0, 0].astype(bool)),)
+        reports = camera.noisy_reports(truth, seen, [self.rng], self.pixel_error)[0, 0]
+        return tuple(
+            VisitWindow(row0, col0, seen[0, 0, c], reports[c]) for c in range(seen.shape[2])
+        )
+
+
+__all__ = ["SENSORS", "AircraftSensor", "check_sensing", "noisy", "sensors_of"]
