@@ -8,10 +8,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wildfire_agent.aircraft_sensor import AircraftSensor, check_sensing, sensors_of
+from wildfire_agent.aircraft_sensor import AircraftSensor, check_sensing
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_belief.filtered_aggregator import FilteredAggregator
+from wildfire_belief.sensors import sensors_of
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 
 
@@ -44,6 +45,7 @@ def test_the_nodes_fuse_what_the_environment_fuses(sensor: str, pixel_error: flo
             break
     assert team.score == env.scores[1] > 0
     assert team.false_alarms == env.sensing.false_alarms[1]
+    assert team.flipped_fraction() == env.sensing.flipped_fraction()[1]
     assert team.ticks == env.decisions[1]
 
 

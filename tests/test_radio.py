@@ -235,8 +235,8 @@ def test_episodes_that_end_early_leave_the_others_flying_under_the_radio() -> No
 
 
 def test_a_radio_message_is_under_a_hundred_bytes_and_reads_back() -> None:
-    from wildfire_agent.agent_protocol import visit_window
     from wildfire_agent.aircraft_radio import AircraftRadio, window_of
+    from wildfire_agent.aircraft_sensor import visit_window
     from wildfire_msgs_py.radio_codec import radio_from_msg, radio_to_msg
 
     burning = np.zeros((100, 100), dtype=bool)
@@ -256,8 +256,8 @@ def test_a_radio_message_is_under_a_hundred_bytes_and_reads_back() -> None:
 
 
 def test_radio_messages_that_lie_are_dropped_with_their_reason() -> None:
-    from wildfire_agent.agent_protocol import visit_window
     from wildfire_agent.aircraft_radio import AircraftRadio, window_of
+    from wildfire_agent.aircraft_sensor import visit_window
     from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
     from wildfire_msgs_py.radio_codec import radio_to_msg
     from wildfire_msgs_py.wire_checks import checked_radio

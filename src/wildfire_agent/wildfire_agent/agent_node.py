@@ -2,7 +2,8 @@
 
 Subscribes to the truth (``/wildfire/fire_map``), the episode status, every other aircraft's
 ``state_stamped``, and the shared belief with its exact ages; publishes ``odom``,
-``bank_cmd``, ``action``, ``state``, ``state_stamped`` and ``visit`` in its namespace, and its
+``bank_cmd``, ``action``, ``state``, ``state_stamped`` and ``visit`` (under camera sensing
+``camera0/cells`` .. ``camera3/cells`` instead) in its namespace, and its
 decision-deadline statistics on ``/diagnostics``. The decision itself is
 :class:`wildfire_agent.aircraft_policy.AircraftPolicy`.
 
@@ -39,10 +40,12 @@ from wildfire_agent.deadlines import PERIOD_S
 from wildfire_agent.dynamics import MAX_BANK_STEPS, AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policy_names import BUILTIN_POLICIES, EXPECTED_POLICIES
+from wildfire_belief.sensors import SENSORS
 from wildfire_msgs_py import codecs, contract, radio_codec, system_codecs
 from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.wire_checks import (
     checked_age_image,
+    checked_belief_grid,
     checked_episode,
     checked_fire_grid,
     checked_radio,
@@ -83,6 +86,20 @@ PARAMETERS = (
         "range=R[,loss=P][,delay=D] (decide on the own replica; lockstep)",
     ),
     ParamSpec(
+        "sensor",
+        "disc",
+        "disc (every cell within 100 m, perfectly) or camera (four cameras; reports on "
+        "camera0..3/cells)",
+        choices=SENSORS,
+    ),
+    ParamSpec(
+        "pixel_error",
+        0.0,
+        "probability that a report flips, below 0.5 (drawn from the aircraft's stream)",
+        0.0,
+        0.5,
+    ),
+    ParamSpec(
         "shape",
         EPISODE_DEFAULTS.shape,
         "ignition shape (the replica's start under limited links)",
@@ -116,7 +133,10 @@ class AgentNode(Node):
         self.action_pub = publisher(contract.ACTION)
         self.state_pub = publisher(contract.STATE)
         self.stamped_pub = publisher(contract.STATE_STAMPED)
-        self.visit_pub = publisher(contract.VISIT)
+        # What the sensor reports: the visit window, or one window per camera.
+        camera = protocol.sensor.sensor == "camera"
+        self.report_specs = contract.CAMERA_CELLS if camera else (contract.VISIT,)
+        self.report_pubs = [publisher(spec) for spec in self.report_specs]
         self.diagnostics_pub = publisher(contract.DIAGNOSTICS)
         self.ack_pub = publisher(contract.ACK)
         self.snapshot_pub = publisher(contract.BELIEF_SNAPSHOT)
@@ -131,7 +151,7 @@ class AgentNode(Node):
         ]
         if protocol.keeps_belief:
             subscriptions += [
-                (contract.BELIEF, lambda m: protocol.on_belief(*checked_fire_grid(m)), deep),
+                (contract.BELIEF, lambda m: protocol.on_belief(*checked_belief_grid(m)), deep),
                 (
                     contract.BELIEF_AGE_EXACT,
                     lambda m: protocol.on_ages(*checked_age_image(m)),
@@ -189,9 +209,10 @@ class AgentNode(Node):
             self.snapshot_pub.publish(system_codecs.snapshot_to_msg(snapshot))
 
     def startup_timer_callback(self) -> None:
-        """Say ready once the aggregator is known to listen to our visits (an orderly start:
-        visits are durable, so one written before DDS matched both ends still arrives)."""
-        if self.ready_sent or self.count_subscribers(contract.VISIT.resolve(self.k)) < 1:
+        """Say ready once the aggregator is known to listen to our reports (an orderly start:
+        reports are durable, so one written before DDS matched both ends still arrives)."""
+        topics = [spec.resolve(self.k) for spec in self.report_specs]
+        if self.ready_sent or any(self.count_subscribers(topic) < 1 for topic in topics):
             return
         self.ready_sent = True
         self.ack_pub.publish(
@@ -221,7 +242,8 @@ class AgentNode(Node):
                 message = codecs.diagnostics_to_msg(statuses, out.stamp)
                 self.diagnostics_pub.publish(message)
             else:
-                self.visit_pub.publish(codecs.visit_to_msg(out.window, out.stamp))
+                for report_pub, window in zip(self.report_pubs, out.windows, strict=True):
+                    report_pub.publish(codecs.visit_to_msg(window, out.stamp))
 
 
 def main(args: list[str] | None = None) -> None:

@@ -35,6 +35,7 @@ import numpy as np
 from wildfire_agent import dynamics
 from wildfire_agent.aircraft_policy import AircraftPolicy
 from wildfire_agent.aircraft_radio import AircraftRadio, window_of
+from wildfire_agent.aircraft_sensor import AircraftSensor
 from wildfire_agent.deadlines import (
     DEADLINE_EVERY_DECISIONS,
     DeadlineStats,
@@ -44,7 +45,6 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.receding_horizon import RecedingHorizonConfig
 from wildfire_belief.radio import CommError, CommModel
-from wildfire_belief.visits import visit_windows, window_values
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
 from wildfire_msgs_py.contract import AIRCRAFT_PREFIX, RADIO_STATUS
 from wildfire_msgs_py.input_guard import (
@@ -87,10 +87,11 @@ class StateOut(NamedTuple):
 
 
 class VisitOut(NamedTuple):
-    """The visit window of the current pose."""
+    """What the sensor reported at the current pose: the visit window, or under camera
+    sensing one window per camera."""
 
     stamp: int
-    window: VisitWindow
+    windows: tuple[VisitWindow, ...]
 
 
 class RadioOut(NamedTuple):
@@ -137,15 +138,6 @@ def team_state(own: AircraftState, k: int, peers: Sequence[np.ndarray]) -> Aircr
     return AircraftState(x, y, heading, bank_steps)
 
 
-def visit_window(state: AircraftState, burning: np.ndarray) -> VisitWindow:
-    """The window of cells the aircraft at ``state`` visits, with their true fire state."""
-    windows = visit_windows(state.x_m[None], state.y_m[None])
-    truth = window_values(burning[None], windows)[0, 0].astype(bool)
-    return VisitWindow(
-        int(windows.row0[0, 0]), int(windows.col0[0, 0]), windows.visited[0, 0], truth
-    )
-
-
 class AgentProtocol:
     """Aircraft ``k`` of ``n``: inputs by stamp, the lockstep barrier and real-time slots.
 
@@ -164,9 +156,13 @@ class AgentProtocol:
         now_ns: Callable[[], int],
         clock: Callable[[], float] = time.monotonic,
         radio: AircraftRadio | None = None,
+        sensor: AircraftSensor | None = None,
     ) -> None:
         if radio is not None and mode is not Mode.LOCKSTEP:
             raise AgentConfigError("comm: limited radio links fly in lockstep only so far")
+        self.sensor = sensor or AircraftSensor("disc", 0.0, 0, k)
+        if radio is not None and self.sensor.noisy:
+            raise AgentConfigError("sensor: noisy sensing under limited radio links is not built")
         self.k = k
         self.n = n
         self.mode = mode
@@ -196,7 +192,7 @@ class AgentProtocol:
             j: TickInbox(tick_ns) for j in self.peer_states
         }
         self.window: VisitWindow | None = None
-        """The own visit window of the newest visited tick."""
+        """The own visit window of the newest visited tick (the radio's, perfect disc)."""
         self.received_tick = -1
 
     @property
@@ -249,8 +245,11 @@ class AgentProtocol:
         if not comm.ideal:
             ignition = initial_fire(p["seed"], p["shape"]).burning[0]
             radio = AircraftRadio(comm, k, n, p["seed"], ignition)
+        sensor = AircraftSensor(p["sensor"], p["pixel_error"], p["seed"], k)
         name_tag = f"{AIRCRAFT_PREFIX}{k}"
-        return cls(k, n, Mode(p["mode"]), policy, start, name_tag, now_ns, radio=radio)
+        return cls(
+            k, n, Mode(p["mode"]), policy, start, name_tag, now_ns, radio=radio, sensor=sensor
+        )
 
     # --- inputs -------------------------------------------------------------------------------
 
@@ -376,8 +375,9 @@ class AgentProtocol:
             if burning is None:
                 return out
             if self.visited_tick < tick:
-                self.window = self.visit(burning)
-                out.append(VisitOut(self.stamp(tick), self.window))
+                windows = self.visit(burning)
+                self.window = windows[0]
+                out.append(VisitOut(self.stamp(tick), windows))
                 if self.radio is not None:
                     message = self.radio.message(tick, self.state, self.window)
                     out.append(RadioOut(self.stamp(tick), message))
@@ -444,8 +444,9 @@ class AgentProtocol:
 
     # --- outputs ------------------------------------------------------------------------------
 
-    def visit(self, burning: np.ndarray) -> VisitWindow:
-        return visit_window(self.state, burning)
+    def visit(self, burning: np.ndarray) -> tuple[VisitWindow, ...]:
+        """The sensor's report windows at the current pose (one decision's draws)."""
+        return self.sensor.report(self.state, burning)
 
     def fly(self, action: int, tick: int) -> StateOut:
         self.state = dynamics.step(self.state, np.array([action], dtype=np.int64))
@@ -484,5 +485,4 @@ __all__ = [
     "VisitOut",
     "state_vector",
     "team_state",
-    "visit_window",
 ]

@@ -15,25 +15,28 @@ import numpy as np
 from wildfire_agent import camera
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
+from wildfire_belief import sensors
 from wildfire_belief.visits import visit_windows, window_values
 from wildfire_msgs_py.codecs import VisitWindow
 from wildfire_sim.seeding import Stream, generator
 
-SENSORS = ("disc", "camera")
-"""The paper's perfect 100 m disc, or the four cameras of the authors' follow-up."""
-
-
-def sensors_of(sensor: str) -> int:
-    """Report windows per aircraft and decision: one per camera, or the one disc."""
-    return camera.NUM_CAMERAS if sensor == "camera" else 1
-
 
 def check_sensing(sensor: str, pixel_error: float) -> None:
     """Refuse an unknown sensor or a pixel error outside [0, 0.5) (one line)."""
-    if sensor not in SENSORS:
-        raise AgentConfigError(f"sensor {sensor!r}: expected one of {', '.join(SENSORS)}")
-    if not 0.0 <= pixel_error < 0.5:
-        raise AgentConfigError(f"pixel_error {pixel_error}: expected 0 <= p < 0.5")
+    try:
+        sensors.check_sensing(sensor, pixel_error)
+    except ValueError as error:
+        raise AgentConfigError(str(error)) from None
+
+
+def visit_window(state: AircraftState, burning: np.ndarray) -> VisitWindow:
+    """The perfect disc: the cells the aircraft at ``state`` (fields (1,)) visits, with their
+    true fire state in the (H, W) ``burning``."""
+    windows = visit_windows(state.x_m[None], state.y_m[None])
+    truth = window_values(burning[None], windows)[0, 0].astype(bool)
+    return VisitWindow(
+        int(windows.row0[0, 0]), int(windows.col0[0, 0]), windows.visited[0, 0], truth
+    )
 
 
 def noisy(sensor: str, pixel_error: float) -> bool:
@@ -48,7 +51,7 @@ class AircraftSensor:
         check_sensing(sensor, pixel_error)
         self.sensor = sensor
         self.pixel_error = pixel_error
-        self.noisy = noisy(sensor, pixel_error)
+        self.noisy = sensors.noisy(sensor, pixel_error)
         self.rng = generator(seed, Stream.SENSOR, k) if self.noisy else None
 
     def report(self, state: AircraftState, burning: np.ndarray) -> tuple[VisitWindow, ...]:
@@ -56,6 +59,8 @@ class AircraftSensor:
 
         Call it once per decision, in order: each call draws the decision's flips.
         """
+        if self.rng is None:
+            return (visit_window(state, burning),)
         x, y = state.x_m[None], state.y_m[None]
         if self.sensor == "camera":
             windows = camera.camera_windows(x, y, state.heading_rad[None], state.bank_steps[None])
@@ -66,12 +71,10 @@ class AircraftSensor:
             windows, seen = disc, disc.visited[:, :, None]
             truth = window_values(burning[None], disc)
         row0, col0 = int(windows.row0[0, 0]), int(windows.col0[0, 0])
-        if self.rng is None:  # the perfect disc: the truth itself
-            return (VisitWindow(row0, col0, seen[0, 0, 0], truth[0, 0].astype(bool)),)
         reports = camera.noisy_reports(truth, seen, [self.rng], self.pixel_error)[0, 0]
         return tuple(
             VisitWindow(row0, col0, seen[0, 0, c], reports[c]) for c in range(seen.shape[2])
         )
 
 
-__all__ = ["SENSORS", "AircraftSensor", "check_sensing", "noisy", "sensors_of"]
+__all__ = ["AircraftSensor", "check_sensing", "visit_window"]

@@ -69,11 +69,11 @@ from typing import NamedTuple
 import numpy as np
 
 from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS
+from wildfire_belief.sensors import CAMERA_WINDOW, CAMERA_WINDOW_HALF, NUM_CAMERAS
 from wildfire_belief.visits import disc_window, window_cells
 
 ALTITUDE_M = 200.0
 """Flight altitude h above the ground."""
-NUM_CAMERAS = 4
 ROLL_DEG = (40.0, 13.0, -13.0, -40.0)
 """Roll of each camera about the body forward axis, positive toward the left wing."""
 PITCH_DEG = 30.0
@@ -89,10 +89,8 @@ RANGE_M = 300.0
 """Cells further than this horizontally from the aircraft are not seen."""
 PIXEL_ERROR = 0.1
 """Probability that a seen cell reports the opposite of its true burning value."""
-WINDOW_HALF = 30
+WINDOW_HALF = CAMERA_WINDOW_HALF
 """Cells from the aircraft's cell to the window edge: a centre 31 cells off is > 300 m away."""
-CAMERA_WINDOW = 2 * WINDOW_HALF + 1
-"""Edge of the footprint window in cells."""
 
 _TAN_HALF_X = SENSOR_X_MM / 2.0 / FOCAL_LENGTH_MM
 _TAN_HALF_Y = SENSOR_Y_MM / 2.0 / FOCAL_LENGTH_MM

@@ -15,6 +15,11 @@ raises :class:`~wildfire_msgs_py.input_guard.RejectedMessage`.
 * Ground station only (limited radio links): the agents decide on their own replicas, so
   the lockstep does not wait for the aggregator (``reports=False``: no acknowledgements);
   it merges and publishes as it goes, and the run flies on if it dies.
+* Noisy sensing (``filtered``): the belief is the filtered one of every report
+  (:class:`~wildfire_belief.filtered_aggregator.FilteredAggregator`), ``sources`` report
+  windows per aircraft and tick (its cameras), and the score needs the truth: tick ``k`` is
+  merged once the fire map of its fire step is in too. The belief goes out as the
+  probability of burning.
 * Restart: a real-time aggregator that starts into a running episode (status tick > 0)
   asks for the agents' copies and continues from the newest one, or from the ignition seed
   once ``recover_timeout_s`` passes without any.
@@ -29,14 +34,17 @@ from typing import NamedTuple
 import numpy as np
 
 from wildfire_belief.aggregator import BeliefAggregator
+from wildfire_belief.filtered_aggregator import FilteredAggregator
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
 from wildfire_msgs_py.input_guard import TickInbox, check_status_tick
 from wildfire_msgs_py.system_codecs import READY_SUFFIX, BeliefSnapshot, EpisodeStatus
 from wildfire_sim.episode import (
     AHEAD_TICKS,
     DECISION_PERIOD_NS,
+    FIRE_STEP_NS,
     REALTIME_AHEAD_NS,
     Mode,
+    fire_step_tick,
     stamp_ceiling_ns,
 )
 
@@ -52,6 +60,8 @@ class BeliefOut(NamedTuple):
     burning: np.ndarray
     age_s: np.ndarray
     score: float
+    probability: np.ndarray | None
+    """The probability of burning (noisy sensing); None under the perfect disc."""
     status: NodeStatus | None
     """The node's shared-belief status when due on ``/diagnostics`` (once a second)."""
 
@@ -78,7 +88,7 @@ Output = BeliefOut | AckOut | RequestOut | LogOut
 
 
 class AggregatorProtocol:
-    """Shared belief of ``n`` aircraft from their visits (see the module docstring).
+    """Shared belief of ``n`` aircraft from their reports (see the module docstring).
 
     ``now_ns`` is the node clock (real-time stamps), ``clock`` a monotonic clock in seconds
     (the recovery timeout).
@@ -93,16 +103,25 @@ class AggregatorProtocol:
         recover_timeout_s: float = 3.0,
         clock: Callable[[], float] = time.monotonic,
         reports: bool = True,
+        filtered: FilteredAggregator | None = None,
+        sources: int = 1,
     ) -> None:
         self.n = n
         self.reports = reports
         self.mode = mode
-        self.aggregator = BeliefAggregator(ignition)
+        self.filtered = filtered
+        self.aggregator: BeliefAggregator | FilteredAggregator = filtered or BeliefAggregator(
+            ignition
+        )
+        self.sources = sources
+        self.fire: TickInbox[np.ndarray] = TickInbox(FIRE_STEP_NS)
+        """Fire maps by stamp: the truth the score under noise needs."""
         self.now_ns = now_ns
         self.recover_timeout_s = recover_timeout_s
         self.clock = clock
         tick_ns = DECISION_PERIOD_NS if mode is Mode.LOCKSTEP else None
-        self.visits: list[TickInbox[VisitWindow]] = [TickInbox(tick_ns) for _ in range(n)]
+        # One inbox per report source: aircraft k's sensor c is source k * sources + c.
+        self.visits: list[TickInbox[VisitWindow]] = [TickInbox(tick_ns) for _ in range(n * sources)]
         self.realtime_queue: list[tuple[int, VisitWindow]] = []
         self.status_tick = -1
         self.status_seen = False
@@ -136,7 +155,9 @@ class AggregatorProtocol:
             )
         # A copy: the belief changes in place with the next merge, maybe before this is sent.
         burning = aggregator.burning.copy()
-        return BeliefOut(stamp, burning, aggregator.age_s(), float(aggregator.score), status)
+        probability = None if self.filtered is None else self.filtered.probability()
+        score = float(aggregator.score)
+        return BeliefOut(stamp, burning, aggregator.age_s(), score, probability, status)
 
     # --- inputs -------------------------------------------------------------------------------
 
@@ -181,8 +202,9 @@ class AggregatorProtocol:
             out += self.ack(NAME, 0)
         return out + self.merge_lockstep()
 
-    def on_visit(self, k: int, stamp: int, window: VisitWindow) -> list[Output]:
-        inbox = self.visits[k]
+    def on_visit(self, source: int, stamp: int, window: VisitWindow) -> list[Output]:
+        """A report window of ``source`` (aircraft k's sensor c: ``k * sources + c``)."""
+        inbox = self.visits[source]
         if self.mode is Mode.REALTIME:
             inbox.ceiling = self.now_ns() + REALTIME_AHEAD_NS
             inbox.accept(stamp, window)
@@ -191,6 +213,18 @@ class AggregatorProtocol:
             return []
         inbox.ceiling = stamp_ceiling_ns(self.status_tick)
         inbox.accept(stamp, window)
+        return self.merge_lockstep()
+
+    def on_fire_map(self, stamp: int, burning: np.ndarray) -> list[Output]:
+        """The truth, for the score under noise (only a filtered aggregator listens)."""
+        self.fire.ceiling = (
+            stamp_ceiling_ns(self.status_tick)
+            if self.mode is Mode.LOCKSTEP
+            else self.now_ns() + REALTIME_AHEAD_NS
+        )
+        self.fire.accept(stamp, burning)
+        if self.mode is Mode.REALTIME:
+            self.fire.discard_below(stamp)  # score on the newest map
         return self.merge_lockstep()
 
     def on_snapshot(self, snapshot: BeliefSnapshot) -> None:
@@ -202,8 +236,16 @@ class AggregatorProtocol:
         if not self.started:
             return []
         stamped, self.realtime_queue = self.realtime_queue, []
-        # Visits of different aircraft arrive in any order: none may undo a newer one.
-        self.aggregator.merge(self.aggregator.fresher_visits(stamped))
+        if self.filtered is not None:
+            # Every report is one more look (exact Bayes): the order does not matter.
+            newest = self.fire.latest()
+            truth = None if newest is None else newest[1]
+            self.filtered.merge([window for _, window in stamped], truth)
+        else:
+            # Visits of different aircraft arrive in any order: none may undo a newer one.
+            aggregator = self.aggregator
+            assert isinstance(aggregator, BeliefAggregator)
+            aggregator.merge(aggregator.fresher_visits(stamped))
         return [self.belief(self.stamp(0))]
 
     # --- lockstep and recovery ----------------------------------------------------------------
@@ -219,9 +261,16 @@ class AggregatorProtocol:
             if tick > self.status_tick or any(stamp not in inbox for inbox in self.visits):
                 return out
             windows = [inbox.items[stamp] for inbox in self.visits]
+            if self.filtered is not None:
+                truth = self.fire.get(fire_step_tick(tick) * DECISION_PERIOD_NS)
+                if truth is None:
+                    return out
+                self.filtered.merge(windows, truth)
+                self.fire.discard_below(fire_step_tick(tick) * DECISION_PERIOD_NS)
+            else:
+                self.aggregator.merge(windows)
             for inbox in self.visits:
                 inbox.discard_below(stamp + DECISION_PERIOD_NS)
-            self.aggregator.merge(windows)
             out += [self.belief(stamp), *self.ack(NAME, stamp)]
 
     def ack(self, reporter: str, stamp: int) -> list[Output]:

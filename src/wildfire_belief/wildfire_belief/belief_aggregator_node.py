@@ -12,6 +12,11 @@ aggregator (it asks the agents on ``/wildfire/belief_request`` and continues fro
 newest ``/wildfire/belief_snapshot``) are
 :class:`wildfire_belief.aggregator_protocol.AggregatorProtocol`.
 
+Under noisy sensing (``sensor:=camera``, or a ``pixel_error``) the belief is the filtered
+one (:class:`wildfire_belief.filtered_aggregator.FilteredAggregator`): it fuses the four
+``/uavK/cameraC/cells`` windows of every aircraft (or its noisy ``visit``), scores against
+``/wildfire/fire_map`` and publishes ``/wildfire/belief`` as the probability of burning.
+
 Every visit is checked (size, values, frame, stamp) before it is kept: one per aircraft and
 tick, the first one counts; replays of merged ticks, stamps far ahead and malformed windows
 are dropped and counted in the node's ``/diagnostics`` input-validation status.
@@ -32,7 +37,8 @@ from wildfire_belief.aggregator_protocol import (
     LogOut,
     Output,
 )
-from wildfire_belief.visits import VISIT_WINDOW
+from wildfire_belief.filtered_aggregator import FilteredAggregator
+from wildfire_belief.sensors import SENSORS, check_sensing, noisy, report_window, sensors_of
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.codecs import (
     belief_age_to_msg,
@@ -42,7 +48,12 @@ from wildfire_msgs_py.codecs import (
 )
 from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.system_codecs import ack_to_msg, age_image_to_msg
-from wildfire_msgs_py.wire_checks import checked_episode, checked_snapshot, checked_visit
+from wildfire_msgs_py.wire_checks import (
+    checked_episode,
+    checked_fire_grid,
+    checked_snapshot,
+    checked_visit,
+)
 from wildfire_ros.node_support import (
     ParamSpec,
     contract_publisher,
@@ -74,6 +85,20 @@ PARAMETERS = (
         "recover_timeout_s", 3.0, "how long a restarted aggregator waits for a copy", 0.0, 60.0
     ),
     ParamSpec(
+        "sensor",
+        "disc",
+        "the aircraft's sensor: disc or camera (camera0..3/cells)",
+        choices=SENSORS,
+    ),
+    ParamSpec("pixel_error", 0.0, "probability that a report flips, below 0.5", 0.0, 0.5),
+    ParamSpec(
+        "preburn_steps",
+        EPISODE_DEFAULTS.preburn_steps,
+        "fire steps burnt before the aircraft come (the filtered belief spreads its start)",
+        0,
+        1000,
+    ),
+    ParamSpec(
         "reports",
         True,
         "acknowledge lockstep ticks (false when the agents decide on their own replicas and "
@@ -91,6 +116,11 @@ class BeliefAggregatorNode(Node):
         self.n: int = p["n_aircraft"]
         self.seed: int = p["seed"]
         mode = Mode(p["mode"])
+        sensor, pixel_error = p["sensor"], p["pixel_error"]
+        check_sensing(sensor, pixel_error)
+        filtered = None
+        if noisy(sensor, pixel_error):
+            filtered = FilteredAggregator(p["seed"], p["shape"], pixel_error, p["preburn_steps"])
         self.protocol = protocol = AggregatorProtocol(
             self.n,
             mode,
@@ -98,7 +128,12 @@ class BeliefAggregatorNode(Node):
             lambda: self.get_clock().now().nanoseconds,
             p["recover_timeout_s"],
             reports=p["reports"],
+            filtered=filtered,
+            sources=sensors_of(sensor),
         )
+        # Where the reports come from: the visit window, or one window per camera.
+        self.report_specs = contract.CAMERA_CELLS if sensor == "camera" else (contract.VISIT,)
+        self.window_side = report_window(sensor)
         self.input_guard = InputGuard(self.get_logger().warning)
 
         self.belief_pub = contract_publisher(self, contract.BELIEF)
@@ -112,11 +147,20 @@ class BeliefAggregatorNode(Node):
         # that matches late), statuses and the snapshots of many agents on one keyless topic.
         latched = contract.QosSpec(depth=100, transient_local=True)
         for k in range(self.n):
+            for c, spec in enumerate(self.report_specs):
+                contract_subscription(
+                    self,
+                    spec,
+                    functools.partial(self.visit_callback, k * protocol.sources + c),
+                    aircraft=k,
+                    qos=latched,
+                    guard=self.input_guard,
+                )
+        if filtered is not None:  # the score under noise needs the truth
             contract_subscription(
                 self,
-                contract.VISIT,
-                functools.partial(self.visit_callback, k),
-                aircraft=k,
+                contract.FIRE_MAP,
+                lambda msg: self.publish(protocol.on_fire_map(*checked_fire_grid(msg))),
                 qos=latched,
                 guard=self.input_guard,
             )
@@ -145,20 +189,25 @@ class BeliefAggregatorNode(Node):
 
     def startup_timer_callback(self) -> None:
         def visits_matched() -> bool:
-            return all(self.count_publishers(contract.VISIT.resolve(k)) for k in range(self.n))
+            return all(
+                self.count_publishers(spec.resolve(k))
+                for k in range(self.n)
+                for spec in self.report_specs
+            )
 
         self.publish(self.protocol.on_startup(visits_matched))
         if self.protocol.started:
             self.destroy_timer(self.startup_timer)
 
-    def visit_callback(self, k: int, msg: Any) -> None:
-        self.publish(self.protocol.on_visit(k, *checked_visit(msg, VISIT_WINDOW)))
+    def visit_callback(self, source: int, msg: Any) -> None:
+        self.publish(self.protocol.on_visit(source, *checked_visit(msg, self.window_side)))
 
     def publish(self, outputs: list[Output]) -> None:
         """Encode and publish the protocol's outputs, in their order."""
         for out in outputs:
             if isinstance(out, BeliefOut):
-                self.belief_pub.publish(belief_to_msg(out.burning, out.stamp))
+                message = belief_to_msg(out.burning, out.stamp, probability=out.probability)
+                self.belief_pub.publish(message)
                 self.age_pub.publish(belief_age_to_msg(out.age_s, out.stamp))
                 self.age_exact_pub.publish(age_image_to_msg(out.age_s, out.stamp))
                 self.score_pub.publish(score_to_msg(out.score))

@@ -78,6 +78,9 @@ class FilteredAggregator:
         self.scored = np.zeros((GRID_SIZE, GRID_SIZE), dtype=bool)
         self.score = 0
         self.false_alarms = 0
+        self.reports = 0
+        self.flipped = 0
+        """Reports, and those that disagreed with the truth (scored ticks only)."""
 
     @property
     def burning(self) -> np.ndarray:
@@ -111,12 +114,19 @@ class FilteredAggregator:
         self.belief.update(np.zeros(cell.size, np.int64), cell, value)
         if truth is None:
             return 0
-        newly, alarms = score_rule(before, self.burning, np.asarray(truth, bool), self.scored)
+        truth = np.asarray(truth, dtype=bool)
+        self.reports += cell.size
+        self.flipped += int(np.count_nonzero(value != truth.reshape(-1)[cell]))
+        newly, alarms = score_rule(before, self.burning, truth, self.scored)
         self.scored |= newly
         self.false_alarms += int(alarms.sum())
         reward = int(newly.sum())
         self.score += reward
         return reward
+
+    def flipped_fraction(self) -> float:
+        """Reports that disagreed with the truth, over all reports."""
+        return self.flipped / max(self.reports, 1)
 
     def restore(self, time_s: float, score: float, believed: np.ndarray, age_s: np.ndarray) -> None:
         """Continue from an agent's copy (believed and ages only): each cell at the log-odds

@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from wildfire_belief.sensors import noisy
 from wildfire_bringup.monitor_node import REPORTER, RunMonitorNode
 from wildfire_bringup.partition_schedule import PartitionSchedule
 from wildfire_ros.network_defaults import apply_local_network_defaults
@@ -89,6 +90,15 @@ class RunSpec:
     comm: str = "ideal"
     """Radio links between the aircraft (``wildfire_belief.radio``); under limited links the
     agents decide on their own replicas and the aggregator is a ground station only."""
+
+    sensor: str = "disc"
+    """The aircraft's sensor (``disc`` or ``camera``)."""
+    pixel_error: float = 0.0
+    """Probability that a report flips; with the camera or any error, a filtered belief."""
+
+    @property
+    def noisy(self) -> bool:
+        return noisy(self.sensor, self.pixel_error)
 
     @property
     def limited_links(self) -> bool:
@@ -148,6 +158,7 @@ def node_commands(
 ) -> dict[str, list[str]]:
     """Command line of every node, by node name (``fire_simulator``, ``uav0``, ...)."""
     common = {"seed": spec.seed, "shape": spec.shape, "mode": spec.mode}
+    sensing = {"sensor": spec.sensor, "pixel_error": spec.pixel_error} if spec.noisy else {}
     commands = {
         "fire_simulator": [
             "wildfire_sim.fire_simulator_node",
@@ -166,7 +177,12 @@ def node_commands(
         "belief_aggregator": [
             "wildfire_belief.belief_aggregator_node",
             *_param_args(
-                {**common, "n_aircraft": spec.n_aircraft, "reports": not spec.limited_links}
+                {
+                    **common,
+                    **sensing,
+                    "n_aircraft": spec.n_aircraft,
+                    "reports": not spec.limited_links,
+                }
             ),
         ],
     }
@@ -189,6 +205,7 @@ def node_commands(
         }
         if spec.limited_links:
             params |= {"comm": spec.comm, "shape": spec.shape}
+        params |= sensing
         commands[f"uav{k}"] = [
             "wildfire_agent.agent_node",
             "--ros-args",
@@ -369,6 +386,8 @@ class Launcher:
                 union_score=self.spec.lockstep,
                 shape=self.spec.shape,
                 radio=self.spec.limited_links,
+                sensor=self.spec.sensor,
+                pixel_error=self.spec.pixel_error,
             )
             self.executor.add_node(self.monitor)
             if self.spec.record_dir is not None:

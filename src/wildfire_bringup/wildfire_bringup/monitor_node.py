@@ -17,6 +17,10 @@ mid-run. With ``radio`` it also counts the bytes of every radio message as seria
 the wire (raw subscriptions: the CDR payload each reader receives), for the radio
 bandwidth per aircraft.
 
+Under noisy sensing (``sensor`` camera or a ``pixel_error``) the union is the filtered
+belief of every report (:class:`~wildfire_belief.filtered_aggregator.FilteredAggregator`,
+the aggregator's and the environment's rules), scored against the fire map of each tick.
+
 Like every node it checks what it receives (:mod:`wildfire_msgs_py.wire_checks`), so the
 summary is built from the system's own messages; the dropped ones are counted.
 """
@@ -32,7 +36,8 @@ import numpy as np
 
 from wildfire_agent.agent_protocol import MAX_BANK_RAD
 from wildfire_belief.aggregator import BeliefAggregator
-from wildfire_belief.visits import VISIT_WINDOW
+from wildfire_belief.filtered_aggregator import FilteredAggregator
+from wildfire_belief.sensors import noisy, report_window, sensors_of
 from wildfire_bringup.trajectory import stacked_trajectory
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.codecs import VisitWindow, diagnostics_from_msg, fuel_grid_from_msg
@@ -47,6 +52,7 @@ from wildfire_msgs_py.input_guard import (
 from wildfire_msgs_py.system_codecs import READY_SUFFIX, EpisodeStatus, ack_to_msg
 from wildfire_msgs_py.wire_checks import (
     checked_age_image,
+    checked_belief_grid,
     checked_episode,
     checked_fire_grid,
     checked_score,
@@ -56,7 +62,12 @@ from wildfire_msgs_py.wire_checks import (
 from wildfire_ros.node_support import contract_publisher, contract_subscription
 from wildfire_ros.runtime import Node, get_message, qos_profile
 from wildfire_sim.episode import DECISION_PERIOD_NS as TICK_NS
-from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, fire_step_tick, initial_fire
+from wildfire_sim.episode import (
+    DECISIONS_PER_FIRE_STEP,
+    EPISODE_DEFAULTS,
+    fire_step_tick,
+    initial_fire,
+)
 
 REPORTER = "wildfire_run"
 MAX_STATUS_STEP = 2 * DECISIONS_PER_FIRE_STEP
@@ -73,6 +84,9 @@ class RunMonitorNode(Node):
         union_score: bool = False,
         shape: str = "circular",
         radio: bool = False,
+        sensor: str = "disc",
+        pixel_error: float = 0.0,
+        preburn_steps: int = EPISODE_DEFAULTS.preburn_steps,
     ) -> None:
         super().__init__("wildfire_run")
         self.seed = seed
@@ -91,11 +105,19 @@ class RunMonitorNode(Node):
         self.ages: np.ndarray | None = None
         self.ground_score = 0.0
         """The belief aggregator's score (the ground station's)."""
-        self.union: BeliefAggregator | None = None
+        self.union: BeliefAggregator | FilteredAggregator | None = None
+        self.filtered: FilteredAggregator | None = None
         self.visits: list[TickInbox[VisitWindow]] = []
-        if union_score:
+        self.sources = sensors_of(sensor)
+        self.report_side = report_window(sensor)
+        self.fire_maps: dict[int, np.ndarray] = {}
+        """Fire maps by stamp: the truth the score under noise needs at each tick."""
+        if union_score and noisy(sensor, pixel_error):
+            self.union = self.filtered = FilteredAggregator(seed, shape, pixel_error, preburn_steps)
+        elif union_score:
             self.union = BeliefAggregator(initial_fire(seed, shape).burning[0])
-            self.visits = [TickInbox(TICK_NS) for _ in range(n_aircraft)]
+        if union_score:
+            self.visits = [TickInbox(TICK_NS) for _ in range(n_aircraft * self.sources)]
         self.deadlines: dict[int, dict[str, float]] = {}
         self.radio_links: dict[int, dict[str, float]] = {}
         self.input_drops: dict[str, dict[str, float]] = {}
@@ -123,8 +145,11 @@ class RunMonitorNode(Node):
             subscribe(contract.STATE_STAMPED, lambda msg, k=k: self.state_callback(k, msg), k)
         self.radio_bytes = np.zeros(n_aircraft, dtype=np.int64)
         self.radio_messages = np.zeros(n_aircraft, dtype=np.int64)
+        report_specs = contract.CAMERA_CELLS if sensor == "camera" else (contract.VISIT,)
         for k in range(n_aircraft if union_score else 0):
-            subscribe(contract.VISIT, lambda msg, k=k: self.visit_callback(k, msg), k)
+            for c, spec in enumerate(report_specs):
+                source = k * self.sources + c
+                subscribe(spec, lambda msg, s=source: self.visit_callback(s, msg), k)
         for k in range(n_aircraft if radio else 0):
             self.create_subscription(
                 get_message(contract.RADIO.type),
@@ -152,13 +177,16 @@ class RunMonitorNode(Node):
         self.fire_stamp = self._newer(self.fire_stamp, stamp)
         self.fire = fire
         self.burned = self.fire.copy() if self.burned is None else self.burned | self.fire
+        if self.filtered is not None:
+            self.fire_maps[stamp] = fire
+            self.merge_union()
         self.report()
 
     def fuel_map_callback(self, msg: Any) -> None:
         self.fuel = fuel_grid_from_msg(msg)
 
     def belief_callback(self, msg: Any) -> None:
-        stamp, belief = checked_fire_grid(msg)
+        stamp, belief = checked_belief_grid(msg)
         self.belief_stamp = self._newer(self.belief_stamp, stamp)
         self.belief = belief
         self._heard("belief_aggregator")
@@ -171,15 +199,28 @@ class RunMonitorNode(Node):
         self.ground_score = max(self.ground_score, checked_score(msg))
         self._heard("belief_aggregator")
 
-    def visit_callback(self, k: int, msg: Any) -> None:
+    def visit_callback(self, source: int, msg: Any) -> None:
+        self.visits[source].accept(*checked_visit(msg, self.report_side))
+        self.merge_union()
+        self.report()
+
+    def merge_union(self) -> None:
+        """Merge every tick whose reports (and under noise, fire map) are all in."""
         assert self.union is not None
-        self.visits[k].accept(*checked_visit(msg, VISIT_WINDOW))
         while all((stamp := (self.union.ticks + 1) * TICK_NS) in inbox for inbox in self.visits):
             windows = [inbox.items[stamp] for inbox in self.visits]
+            if self.filtered is not None:
+                fire_stamp = fire_step_tick(self.union.ticks + 1) * TICK_NS
+                truth = self.fire_maps.get(fire_stamp)
+                if truth is None:
+                    return
+                self.filtered.merge(windows, truth)
+                for older in [s for s in self.fire_maps if s < fire_stamp]:
+                    del self.fire_maps[older]
+            else:
+                self.union.merge(windows)
             for inbox in self.visits:
                 inbox.discard_below(stamp + TICK_NS)
-            self.union.merge(windows)
-        self.report()
 
     def radio_callback(self, k: int, data: bytes) -> None:
         self.radio_bytes[k] += len(data)

@@ -9,8 +9,8 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from wildfire_agent.aircraft_sensor import SENSORS
 from wildfire_belief.radio import CommError, CommModel
+from wildfire_belief.sensors import SENSORS
 from wildfire_sim.defaults import EPISODE_DEFAULTS
 
 

@@ -213,12 +213,10 @@ def build_spec(args: argparse.Namespace) -> Any:
     config = EnvConfig(
         shapes=(shape.value,), observation="none", **scenario_settings(args)
     ).validate()
-    if config.noisy:
-        raise UserError(
-            f"--sensor {config.sensor} --pixel-error {config.pixel_error:g}: noisy sensing flies "
-            "in `wildfire eval`, `report` and `train` so far (the nodes' camera reports are not "
-            "built yet)"
-        )
+    if config.noisy and not config.comm.ideal:
+        raise UserError(f"--comm {config.comm}: noisy sensing under limited links is not built yet")
+    if config.wind_filter:
+        raise UserError("--wind-filter: the nodes' belief has no wind filter yet (eval only)")
     if not config.comm.ideal and args.realtime:
         raise UserError(f"--comm {config.comm}: limited radio links fly in lockstep only so far")
     scenario = draw_scenario(args.seed, config)
@@ -241,6 +239,8 @@ def build_spec(args: argparse.Namespace) -> Any:
         netem=netem,
         partitions=partitions,
         comm=str(config.comm),
+        sensor=config.sensor,
+        pixel_error=config.pixel_error,
     )
 
 
@@ -286,6 +286,11 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         # Lockstep: the score is the union's; the ground station's beside it (short of it when
         # the aggregator died mid-flight under limited links).
         result["aggregator_score"] = round(monitor.ground_score)
+    filtered = getattr(monitor, "filtered", None)
+    if filtered is not None:
+        result |= {"sensor": spec.sensor, "pixel_error": spec.pixel_error}
+        result["false_alarms"] = filtered.false_alarms
+        result["flipped_fraction"] = filtered.flipped_fraction()
     if spec.limited_links:
         result["comm"] = spec.comm
         flight_s = max(decisions, 1) / 10.0
@@ -324,7 +329,10 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
     if monitor.burned is not None:
         # The belief starts as the ignition seed (docs/model.md, Shared belief), as in the
         # aggregator.
-        ceiling = score_ceiling(monitor.burned[None], ignition.burning)[0]
+        # Under noise a cell believed burning at the start can lose that belief and score
+        # later (once): every cell that burns in flight counts, as in `wildfire eval`.
+        start = np.zeros_like(ignition.burning) if spec.noisy else ignition.burning
+        ceiling = score_ceiling(monitor.burned[None], start)[0]
         result["score_ceiling"] = int(ceiling)
         result["ceiling_fraction"] = result["score"] / max(int(ceiling), 1)
     if monitor.fuel is not None:

@@ -47,7 +47,7 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from wildfire_agent import aircraft_sensor, dynamics, pairwise
+from wildfire_agent import dynamics, pairwise
 from wildfire_agent.approaches import (
     APPROACHES,
     Approach,
@@ -63,6 +63,7 @@ from wildfire_agent.rewards import (
     fire_field_maps,
     observation_rewards,
 )
+from wildfire_belief import sensors
 from wildfire_belief.belief import SharedBelief
 from wildfire_belief.radio import IDEAL, CommModel
 from wildfire_belief.visits import visit_windows, visited_cells, window_values
@@ -127,7 +128,7 @@ class EnvConfig:
     @property
     def noisy(self) -> bool:
         """Sensing other than the paper's perfect disc: a filtered (probability) belief."""
-        return aircraft_sensor.noisy(self.sensor, self.pixel_error)
+        return sensors.noisy(self.sensor, self.pixel_error)
 
     def validate(self) -> EnvConfig:
         """Return self, or raise :class:`LearningError` naming the bad field."""
@@ -149,10 +150,8 @@ class EnvConfig:
             raise LearningError(f"duration: expected > 0 s, got {self.max_duration_s}")
         if self.preburn_steps < 0:
             raise LearningError(f"preburn_steps: expected >= 0, got {self.preburn_steps}")
-        if self.sensor not in aircraft_sensor.SENSORS:
-            raise LearningError(
-                f"sensor: expected one of {aircraft_sensor.SENSORS}, got {self.sensor!r}"
-            )
+        if self.sensor not in sensors.SENSORS:
+            raise LearningError(f"sensor: expected one of {sensors.SENSORS}, got {self.sensor!r}")
         if not 0.0 <= self.pixel_error < 0.5:
             raise LearningError(
                 f"pixel error: expected a number in [0, 0.5), got {self.pixel_error}"

@@ -126,7 +126,8 @@ BELIEF = TopicSpec(
     "nav_msgs/msg/OccupancyGrid",
     LATCHED,
     False,
-    "shared belief: 100 believed burning, 0 believed not burning",
+    "shared belief: the probability of burning in percent, believed burning above 50 (the "
+    "paper's perfect disc: 100 or 0)",
 )
 BELIEF_AGE = TopicSpec(
     "/wildfire/belief_age",
@@ -166,7 +167,8 @@ VISIT = TopicSpec(
     # Durable visits reach the aggregator whichever side matches last.
     LATCHED_HISTORY,
     True,
-    "window around the aircraft: 100/0 truth in visited cells, -1 outside the 100 m disc",
+    "window around the aircraft: 100/0 truth in visited cells (with a pixel error: the noisy "
+    "report), -1 outside the 100 m disc",
 )
 STATE = TopicSpec(
     "state",
@@ -258,6 +260,22 @@ RADIO = TopicSpec(
     "aircraft, pose and the burning bits of its visited cells (wildfire_msgs_py.radio_codec)",
 )
 
+
+CAMERA_CELLS: tuple[TopicSpec, ...] = tuple(
+    TopicSpec(
+        f"camera{i}/cells",
+        "nav_msgs/msg/OccupancyGrid",
+        # Durable for the reason visits are: lockstep waits for every camera's report.
+        LATCHED_HISTORY,
+        True,
+        f"camera sensing only: what camera {i} (roll {('+40', '+13', '-13', '-40')[i]} degrees) "
+        "reported this decision, 61 x 61 cells around the aircraft: 100/0 reported burning or "
+        "not in the cells it saw, -1 elsewhere",
+    )
+    for i in range(4)
+)
+"""Per-camera report windows under ``--sensor camera`` (the disc's go on ``visit``)."""
+
 #: Every topic of the contract, in documentation order.
 TOPICS: tuple[TopicSpec, ...] = (
     CLOCK,
@@ -282,6 +300,7 @@ SYSTEM_TOPICS: tuple[TopicSpec, ...] = (
     BELIEF_REQUEST,
     BELIEF_SNAPSHOT,
     RADIO,
+    *CAMERA_CELLS,
 )
 
 _AIRCRAFT_NAMESPACE = re.compile(rf"^/{AIRCRAFT_PREFIX}(0|[1-9][0-9]*)$")
@@ -347,6 +366,7 @@ __all__ = [
     "BELIEF_AGE_EXACT",
     "BELIEF_REQUEST",
     "BELIEF_SNAPSHOT",
+    "CAMERA_CELLS",
     "CLOCK",
     "CLOCK_QOS",
     "DEADLINE_STATUS",

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from wildfire_msgs_py.codecs import (
+    BELIEVED_ABOVE,
     FIRE_BURNING,
     FIRE_NOT_BURNING,
     STATE_FIELDS,
@@ -88,12 +89,21 @@ def _map_grid(msg: Any) -> np.ndarray:
 
 
 def checked_fire_grid(msg: Any) -> tuple[int, np.ndarray]:
-    """Fire map or shared belief -> (stamp ns, bool burning mask)."""
+    """Fire map -> (stamp ns, bool burning mask)."""
     stamp = _stamp(msg.header)
     grid = _map_grid(msg)
     if not np.isin(grid, (FIRE_BURNING, FIRE_NOT_BURNING)).all():
         raise _reject(DropReason.OUT_OF_RANGE, "fire grid values other than 0 and 100")
     return stamp, grid == FIRE_BURNING
+
+
+def checked_belief_grid(msg: Any) -> tuple[int, np.ndarray]:
+    """Shared belief (percent of burning) -> (stamp ns, bool believed burning)."""
+    stamp = _stamp(msg.header)
+    grid = _map_grid(msg)
+    if grid.min() < FIRE_NOT_BURNING or grid.max() > FIRE_BURNING:
+        raise _reject(DropReason.OUT_OF_RANGE, "belief values outside 0..100")
+    return stamp, grid > BELIEVED_ABOVE
 
 
 def checked_age_image(msg: Any) -> tuple[int, np.ndarray]:
@@ -220,6 +230,7 @@ __all__ = [
     "POSITION_LIMIT_M",
     "checked_ack",
     "checked_age_image",
+    "checked_belief_grid",
     "checked_episode",
     "checked_fire_grid",
     "checked_radio",
