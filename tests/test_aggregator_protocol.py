@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from wildfire_agent.agent_protocol import visit_window
+from wildfire_agent.aircraft_sensor import visit_window
 from wildfire_agent.dynamics import AircraftState
 from wildfire_belief.aggregator import BeliefAggregator
 from wildfire_belief.aggregator_protocol import (

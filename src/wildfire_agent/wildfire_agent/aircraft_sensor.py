@@ -63,17 +63,17 @@ class AircraftSensor:
             return (visit_window(state, burning),)
         x, y = state.x_m[None], state.y_m[None]
         if self.sensor == "camera":
-            windows = camera.camera_windows(x, y, state.heading_rad[None], state.bank_steps[None])
-            truth = camera.window_values(burning[None], windows)
-            seen = windows.seen
+            cameras = camera.camera_windows(x, y, state.heading_rad[None], state.bank_steps[None])
+            truth = camera.window_values(burning[None], cameras)
+            row0, col0, seen = cameras.row0, cameras.col0, cameras.seen
         else:
             disc = visit_windows(x, y)
-            windows, seen = disc, disc.visited[:, :, None]
             truth = window_values(burning[None], disc)
-        row0, col0 = int(windows.row0[0, 0]), int(windows.col0[0, 0])
+            row0, col0, seen = disc.row0, disc.col0, disc.visited[:, :, None]
         reports = camera.noisy_reports(truth, seen, [self.rng], self.pixel_error)[0, 0]
         return tuple(
-            VisitWindow(row0, col0, seen[0, 0, c], reports[c]) for c in range(seen.shape[2])
+            VisitWindow(int(row0[0, 0]), int(col0[0, 0]), seen[0, 0, c], reports[c])
+            for c in range(seen.shape[2])
         )
 
 

@@ -391,11 +391,16 @@ class Launcher:
             )
             self.executor.add_node(self.monitor)
             if self.spec.record_dir is not None:
-                from wildfire_ros.bag import BagRecorder
+                from wildfire_ros.bag import SENSOR_KEY, BagRecorder
 
                 # Lockstep bags log sim time (/clock), so `bag play` replays them at sim pace.
+                # The world of the run travels with its bag (what rebuilding needs to know).
+                sensing = {SENSOR_KEY: f"{self.spec.sensor},{self.spec.pixel_error!r}"}
                 self.recorder = BagRecorder(
-                    self.spec.record_dir, discovery_period=0.2, use_sim_time=self.spec.lockstep
+                    self.spec.record_dir,
+                    discovery_period=0.2,
+                    use_sim_time=self.spec.lockstep,
+                    custom_data=sensing,
                 )
                 self.executor.add_node(self.recorder.node)
             for name, command in node_commands(self.spec).items():

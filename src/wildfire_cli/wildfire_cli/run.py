@@ -213,8 +213,6 @@ def build_spec(args: argparse.Namespace) -> Any:
     config = EnvConfig(
         shapes=(shape.value,), observation="none", **scenario_settings(args)
     ).validate()
-    if config.noisy and not config.comm.ideal:
-        raise UserError(f"--comm {config.comm}: noisy sensing under limited links is not built yet")
     if config.wind_filter:
         raise UserError("--wind-filter: the nodes' belief has no wind filter yet (eval only)")
     if not config.comm.ideal and args.realtime:

@@ -58,7 +58,7 @@ from wildfire_learning.replay import ImageCodec
 from wildfire_msgs_py import codecs, contract
 from wildfire_msgs_py.errors import WildfireRosError
 from wildfire_msgs_py.system_codecs import stamped_state_from_msg
-from wildfire_ros.bag import bag_info, read_messages
+from wildfire_ros.bag import SENSOR_KEY, bag_info, read_custom_data, read_messages
 from wildfire_sim.episode import (
     DECISION_PERIOD_NS,
     DECISIONS_PER_FIRE_STEP,
@@ -166,6 +166,17 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
         raise LearningError(
             f"bag {bag}: recorded under limited radio links ({contract.RADIO.resolve(0)}): "
             "rebuilding its transitions is not supported (record with ideal links)"
+        )
+    try:  # bags from before the key, or repaired after a crash: the paper's disc
+        sensing = read_custom_data(bag).get(SENSOR_KEY, "disc,0.0")
+    except OSError:
+        sensing = "disc,0.0"
+    sensor, _, pixel_error = sensing.partition(",")
+    if sensor != "disc" or pixel_error.strip() not in ("", "0", "0.0"):
+        # The team fused noisy reports into a probability; the rebuild knows the disc only.
+        raise LearningError(
+            f"bag {bag}: recorded under noisy sensing ({sensing}): rebuilding its "
+            "transitions is not built yet (record with --sensor disc)"
         )
     required = [contract.FIRE_MAP.name] + ([contract.BELIEF.name] if need_belief else [])
     missing = [t for t in required if t not in topics]

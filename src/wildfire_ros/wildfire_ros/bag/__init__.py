@@ -32,6 +32,7 @@ Playing and repairing bags live beside this package, in :mod:`wildfire_ros.bag_p
 from wildfire_ros.bag.info import BagInfo, TopicSummary, bag_info
 from wildfire_ros.bag.metadata import (
     PRESET_KEY,
+    SENSOR_KEY,
     TIME_SOURCE_KEY,
     QosSummary,
     parse_offered_qos,
@@ -47,6 +48,7 @@ from wildfire_ros.bag.writer import BagWriter
 __all__ = [
     "BULKY_TOPICS",
     "PRESET_KEY",
+    "SENSOR_KEY",
     "TIME_SOURCE_KEY",
     "BagInfo",
     "BagMessage",

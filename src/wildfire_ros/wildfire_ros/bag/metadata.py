@@ -35,6 +35,8 @@ _INFINITE = QosTime(0x7FFFFFFF, 0xFFFFFFFF)
 #: Keys of ``custom_data`` in ``metadata.yaml`` (rosbag2's free-form map).
 PRESET_KEY = "wildfire.compression_preset"
 TIME_SOURCE_KEY = "wildfire.time_source"
+SENSOR_KEY = "wildfire.sensor"
+"""The aircraft's sensor and pixel error of a recorded run, e.g. ``camera,0.1``."""
 
 
 @dataclass(frozen=True)
@@ -117,6 +119,7 @@ def read_custom_data(path: Path) -> dict[str, str]:
 
 __all__ = [
     "PRESET_KEY",
+    "SENSOR_KEY",
     "TIME_SOURCE_KEY",
     "QosSummary",
     "dump_yaml",

@@ -98,6 +98,7 @@ class BagRecorder:
         compression: str = DEFAULT_PRESET,
         use_sim_time: bool = False,
         chunk_period_s: float = 1.0,
+        custom_data: dict[str, str] | None = None,
     ) -> None:
         from wildfire_ros.runtime import Node, get_message, qos_profile
 
@@ -105,7 +106,10 @@ class BagRecorder:
             output,
             compression=compression,
             chunk_period_s=chunk_period_s,
-            custom_data={TIME_SOURCE_KEY: "sim" if use_sim_time else "system"},
+            custom_data={
+                TIME_SOURCE_KEY: "sim" if use_sim_time else "system",
+                **(custom_data or {}),
+            },
         )
         self.node = Node(node_name)
         self._wanted = None if topics is None else set(topics)

@@ -1,0 +1,86 @@
+"""Camera sensing in the distributed system: a lockstep run equals ``wildfire eval
+--sensor camera`` bit for bit (score, false alarms, flipped reports, belief, every flight
+path), each camera's reports are on the wire and in the bag, and the shared belief carries
+the probability of burning."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wildfire_learning.bag_transitions import read_recording
+from wildfire_learning.env import EnvConfig
+from wildfire_learning.errors import LearningError
+from wildfire_learning.evaluate import evaluate
+from wildfire_learning.vec_policies import make_vec_policy
+
+pytestmark = [pytest.mark.dds, pytest.mark.timeout(180)]
+WILDFIRE = str(Path(sys.executable).parent / "wildfire")
+
+
+def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str, str]) -> None:
+    from wildfire_msgs_py.codecs import grid_from_msg, visit_from_msg
+    from wildfire_msgs_py.system_codecs import stamped_state_from_msg
+    from wildfire_ros.bag import SENSOR_KEY, read_custom_data, read_messages
+
+    # rh-belief plans on the believed map: its decisions depend on the fused belief.
+    policy, seed, n, duration = "rh-belief", 2000003, 2, 15.0
+    bag = tmp_path / "bag"
+    result = subprocess.run(
+        [WILDFIRE, "run", "--policy", policy, "--aircraft", str(n), "--sensor", "camera",
+         "--seed", str(seed), "--duration", str(duration), "--fast", "--json",
+         "--record", str(bag), "--log-dir", str(tmp_path / "logs")],
+        env=dds_env, capture_output=True, text=True, timeout=150,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(result.stdout)
+    config = EnvConfig(
+        n_aircraft=n, shapes=("circular",), max_duration_s=duration, sensor="camera",
+        pixel_error=0.1,
+    )  # fmt: skip
+    expected = evaluate(make_vec_policy(policy), config, [seed], record=True).episodes[0]
+    assert (summary["sensor"], summary["pixel_error"]) == ("camera", 0.1)
+    assert summary["score"] == expected.score > 0
+    assert summary["aggregator_score"] == expected.score
+    assert summary["decisions"] == expected.decisions
+    assert summary["false_alarms"] == expected.false_alarms
+    assert summary["flipped_fraction"] == expected.flipped_fraction
+    assert summary["belief_iou"] == expected.belief_iou
+    assert summary["score_ceiling"] == expected.score_ceiling
+    assert all(drops["dropped"] == 0 for drops in summary["dropped_inputs"].values())
+
+    states: dict[str, dict[int, np.ndarray]] = {}
+    reports: dict[str, int] = {}
+    probabilities = set()
+    seen_cells = 0
+    cameras = [f"/uav{k}/camera{c}/cells" for k in range(n) for c in range(4)]
+    topics = [f"/uav{k}/state_stamped" for k in range(n)] + cameras + ["/wildfire/belief"]
+    for message in read_messages(bag, topics=topics):
+        if message.topic in cameras:
+            window = visit_from_msg(message.message)
+            assert window.visited.shape == (61, 61)  # off the map a camera may see nothing
+            reports[message.topic] = reports.get(message.topic, 0) + 1
+            seen_cells += int(window.visited.sum())
+        elif message.topic == "/wildfire/belief":
+            probabilities |= set(np.unique(grid_from_msg(message.message)).tolist())
+        else:
+            stamp, vector = stamped_state_from_msg(message.message)
+            states.setdefault(message.topic, {})[stamp] = vector
+    for k in range(n):
+        recorded = states[f"/uav{k}/state_stamped"]
+        path = np.array([recorded[t][:2] for t in sorted(recorded)])
+        assert np.array_equal(path, expected.trajectory[:, k])
+    # One report per camera and decision, from tick 1.
+    assert reports == dict.fromkeys(cameras, expected.decisions)
+    assert seen_cells > 100 * expected.decisions
+    # The belief is a probability in percent, not just 0 and 100.
+    assert probabilities - {0, 100} and min(probabilities) >= 0 and max(probabilities) <= 100
+    # The bag says what it was recorded with; its rebuild refuses what it cannot rebuild.
+    assert read_custom_data(bag)[SENSOR_KEY] == "camera,0.1"
+    with pytest.raises(LearningError, match="noisy sensing"):
+        read_recording(bag, need_belief=True)
