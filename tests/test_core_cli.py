@@ -94,7 +94,10 @@ def test_eval_json(tmp_path):
         (["eval", "--sensor", "radar"], "--sensor"),
         (["eval", "--sensor", "camera", "--pixel-error", "0.5"], "[0, 0.5)"),
         (["eval", "--sensor", "camera", "--policy", "obs"], "observation approach"),
-        (["run", "--sensor", "camera", "--comm", "none"], "noisy sensing under limited radio links"),
+        (
+            ["run", "--sensor", "camera", "--comm", "none"],
+            "noisy sensing under limited radio links",
+        ),
         (["run", "--sensor", "camera", "--wind-filter"], "--wind-filter"),
     ],
 )

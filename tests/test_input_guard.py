@@ -41,7 +41,7 @@ def test_honest_messages_pass_every_check() -> None:
     assert wire_checks.checked_stamped_state(msg, MAX_BANK)[1].tobytes() == state.tobytes()
     visited = np.zeros((VISIT_WINDOW, VISIT_WINDOW), dtype=bool)
     visited[5:9, 5:9] = True
-    window = codecs.VisitWindow(-10, 95, visited, visited & (np.arange(VISIT_WINDOW) % 2 == 0))
+    window = codecs.VisitWindow(-3, 90, visited, visited & (np.arange(VISIT_WINDOW) % 2 == 0))
     assert wire_checks.checked_visit(codecs.visit_to_msg(window, TICK), VISIT_WINDOW)[1] == window
     status = system_codecs.episode_to_msg("running", {"tick": 7, "seed": 3, "complete": "false"})
     assert wire_checks.checked_episode(status, 3).tick == 7
@@ -86,6 +86,13 @@ def test_bad_visits_acks_episodes_and_scores_are_rejected() -> None:
     )
     assert (
         reason_of(wire_checks.checked_visit, codecs.visit_to_msg(far), VISIT_WINDOW)
+        is DropReason.OUT_OF_RANGE
+    )
+    edge = codecs.VisitWindow(
+        -15, 40, np.ones((VISIT_WINDOW,) * 2, bool), np.zeros((VISIT_WINDOW,) * 2, bool)
+    )
+    assert (
+        reason_of(wire_checks.checked_visit, codecs.visit_to_msg(edge), VISIT_WINDOW)
         is DropReason.OUT_OF_RANGE
     )
     stranger = system_codecs.ack_to_msg("intruder", 0)
@@ -156,3 +163,39 @@ def test_guard_counts_every_drop_and_logs_at_a_limited_rate() -> None:
     assert status.values["/uav0/state_stamped out of range"] == 101
     assert status.values["/uav0/state_stamped malformed"] == 100
     assert InputGuard(print).status("x", "x").level == "OK"
+
+
+def test_camera_reports_of_the_wrong_size_frame_or_place_are_rejected() -> None:
+    from wildfire_agent.aircraft_sensor import AircraftSensor
+    from wildfire_agent.dynamics import AircraftState
+    from wildfire_belief.sensors import CAMERA_WINDOW
+
+    pose = AircraftState(np.array([480.0]), np.array([300.0]), np.ones(1), np.array([3]))
+    burning = np.random.default_rng(2).random((100, 100)) < 0.2
+    for window in AircraftSensor("camera", 0.1, 7, 0).report(pose, burning):
+        msg = codecs.visit_to_msg(window, TICK)
+        assert wire_checks.checked_visit(msg, CAMERA_WINDOW) == (TICK, window)
+        assert reason_of(wire_checks.checked_visit, msg, VISIT_WINDOW) is DropReason.MALFORMED
+        msg.header.frame_id = "uav0/base_link"
+        assert reason_of(wire_checks.checked_visit, msg, CAMERA_WINDOW) is DropReason.WRONG_FRAME
+    side = (CAMERA_WINDOW,) * 2
+    beyond = codecs.VisitWindow(40, 80, np.ones(side, bool), np.zeros(side, bool))
+    assert (
+        reason_of(wire_checks.checked_visit, codecs.visit_to_msg(beyond), CAMERA_WINDOW)
+        is DropReason.OUT_OF_RANGE
+    )
+
+
+def test_the_belief_grid_keeps_the_believed_side_of_one_half() -> None:
+    probability = np.linspace(0.0, 1.0, 10_000).reshape(100, 100)
+    probability[0, :3] = (0.5, 0.503, 0.497)  # round to 50 on either side of the threshold
+    believed = probability > 0.5
+    msg = codecs.belief_to_msg(believed, TICK, probability=probability)
+    stamp, decoded = wire_checks.checked_belief_grid(msg)
+    assert stamp == TICK and np.array_equal(decoded, believed)
+    percent = codecs.grid_from_msg(msg)
+    assert np.all(np.abs(percent - probability * 100) <= 1.0)
+    disc = codecs.belief_to_msg(believed, TICK)
+    assert set(np.unique(codecs.grid_from_msg(disc))) == {0, 100}
+    odd = codecs.grid_to_msg(np.full((100, 100), 101, dtype=np.int8))
+    assert reason_of(wire_checks.checked_belief_grid, odd) is DropReason.OUT_OF_RANGE

@@ -159,7 +159,8 @@ def checked_radio(msg: Any, sender: int, max_bank_steps: int) -> tuple[int, Radi
 
 
 def checked_visit(msg: Any, window_side: int) -> tuple[int, VisitWindow]:
-    """Visit window -> (stamp ns, window) of the expected size, origin on the cell grid."""
+    """Visit or camera report window -> (stamp ns, window) of the expected size, origin on
+    the cell grid, every reported cell on the map (an honest sensor sees no cell off it)."""
     stamp = _stamp(msg.header)
     _square_layout(msg, window_side, "window")
     origin = (msg.info.origin.position.x, msg.info.origin.position.y)
@@ -168,7 +169,12 @@ def checked_visit(msg: Any, window_side: int) -> tuple[int, VisitWindow]:
     grid = grid_from_msg(msg)
     if not np.isin(grid, (UNKNOWN_CELL, FIRE_NOT_BURNING, FIRE_BURNING)).all():
         raise _reject(DropReason.OUT_OF_RANGE, "visit values other than -1, 0 and 100")
-    return stamp, visit_from_msg(msg)
+    window = visit_from_msg(msg)
+    rows, cols = np.nonzero(window.visited)
+    rows, cols = rows + window.row0, cols + window.col0
+    if rows.size and (min(rows.min(), cols.min()) < 0 or max(rows.max(), cols.max()) >= GRID_SIZE):
+        raise _reject(DropReason.OUT_OF_RANGE, "reported cells off the map")
+    return stamp, window
 
 
 def checked_episode(msg: Any, seed: int) -> EpisodeStatus:
