@@ -19,11 +19,18 @@ from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.vec_policies import make_vec_policy
 
+
+def time_ns(msg: object) -> int:
+    stamp = msg.header.stamp  # type: ignore[attr-defined]
+    return int(stamp.sec) * 10**9 + int(stamp.nanosec)
+
+
 pytestmark = [pytest.mark.dds, pytest.mark.timeout(180)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")
 
 
 def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str, str]) -> None:
+    from wildfire_msgs_py.camera_codec import footprint_outline, outlines_from_msg
     from wildfire_msgs_py.codecs import grid_from_msg, visit_from_msg
     from wildfire_msgs_py.system_codecs import stamped_state_from_msg
     from wildfire_ros.bag import SENSOR_KEY, read_custom_data, read_messages
@@ -59,10 +66,17 @@ def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str
     probabilities = set()
     seen_cells = 0
     cameras = [f"/uav{k}/camera{c}/cells" for k in range(n) for c in range(4)]
+    footprints = [f"/uav{k}/camera/footprints" for k in range(n)]
     topics = [f"/uav{k}/state_stamped" for k in range(n)] + cameras + ["/wildfire/belief"]
-    for message in read_messages(bag, topics=topics):
-        if message.topic in cameras:
+    windows: dict[tuple[str, int], object] = {}
+    outlines: dict[tuple[str, int], list[np.ndarray]] = {}
+    for message in read_messages(bag, topics=topics + footprints):
+        if message.topic in footprints:
+            stamped = time_ns(message.message.markers[0])
+            outlines[message.topic, stamped] = outlines_from_msg(message.message)
+        elif message.topic in cameras:
             window = visit_from_msg(message.message)
+            windows[message.topic, time_ns(message.message)] = window
             assert window.visited.shape == (61, 61)  # off the map a camera may see nothing
             reports[message.topic] = reports.get(message.topic, 0) + 1
             seen_cells += int(window.visited.sum())
@@ -78,6 +92,13 @@ def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str
     # One report per camera and decision, from tick 1.
     assert reports == dict.fromkeys(cameras, expected.decisions)
     assert seen_cells > 100 * expected.decisions
+    # The footprint outlines (for RViz) trace the very cells each camera reported.
+    assert len(outlines) == n * expected.decisions
+    for (topic, stamp), drawn in outlines.items():
+        k = topic.split("/")[1]
+        for c, outline in enumerate(drawn):
+            window = windows[f"/{k}/camera{c}/cells", stamp]
+            np.testing.assert_array_equal(outline, footprint_outline(window))  # type: ignore[arg-type]
     # The belief is a probability in percent, not just 0 and 100.
     assert probabilities - {0, 100} and min(probabilities) >= 0 and max(probabilities) <= 100
     # The bag says what it was recorded with; its rebuild refuses what it cannot rebuild.

@@ -2,9 +2,9 @@
 
 Subscribes to the truth (``/wildfire/fire_map``), the episode status, every other aircraft's
 ``state_stamped``, and the shared belief with its exact ages; publishes ``odom``,
-``bank_cmd``, ``action``, ``state``, ``state_stamped`` and ``visit`` (under camera sensing
-``camera0/cells`` .. ``camera3/cells`` instead) in its namespace, and its
-decision-deadline statistics on ``/diagnostics``. The decision itself is
+``bank_cmd``, ``action``, ``state``, ``state_stamped`` and ``visit`` in its namespace (under
+camera sensing ``camera0/cells`` .. ``camera3/cells`` and ``camera/footprints`` instead of
+``visit``), and its decision-deadline statistics on ``/diagnostics``. The decision itself is
 :class:`wildfire_agent.aircraft_policy.AircraftPolicy`.
 
 The node only decodes, calls and encodes: every input is checked
@@ -41,7 +41,7 @@ from wildfire_agent.dynamics import MAX_BANK_STEPS, AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policy_names import BUILTIN_POLICIES, EXPECTED_POLICIES
 from wildfire_belief.sensors import SENSORS
-from wildfire_msgs_py import codecs, contract, radio_codec, system_codecs
+from wildfire_msgs_py import camera_codec, codecs, contract, radio_codec, system_codecs
 from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.wire_checks import (
     checked_age_image,
@@ -137,6 +137,7 @@ class AgentNode(Node):
         camera = protocol.sensor.sensor == "camera"
         self.report_specs = contract.CAMERA_CELLS if camera else (contract.VISIT,)
         self.report_pubs = [publisher(spec) for spec in self.report_specs]
+        self.footprint_pub = publisher(contract.CAMERA_FOOTPRINTS) if camera else None
         self.diagnostics_pub = publisher(contract.DIAGNOSTICS)
         self.ack_pub = publisher(contract.ACK)
         self.snapshot_pub = publisher(contract.BELIEF_SNAPSHOT)
@@ -244,6 +245,9 @@ class AgentNode(Node):
             else:
                 for report_pub, window in zip(self.report_pubs, out.windows, strict=True):
                     report_pub.publish(codecs.visit_to_msg(window, out.stamp))
+                if self.footprint_pub is not None:
+                    message = camera_codec.footprints_to_msg(out.windows, self.k, out.stamp)
+                    self.footprint_pub.publish(message)
 
 
 def main(args: list[str] | None = None) -> None:

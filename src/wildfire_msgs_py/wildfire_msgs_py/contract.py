@@ -275,6 +275,14 @@ CAMERA_CELLS: tuple[TopicSpec, ...] = tuple(
     for i in range(4)
 )
 """Per-camera report windows under ``--sensor camera`` (the disc's go on ``visit``)."""
+CAMERA_FOOTPRINTS = TopicSpec(
+    "camera/footprints",
+    "visualization_msgs/msg/MarkerArray",
+    STREAM,
+    True,
+    "camera sensing only: the outline of each camera's footprint this decision, one "
+    "LINE_STRIP per camera in frame map (for RViz and Foxglove)",
+)
 
 #: Every topic of the contract, in documentation order.
 TOPICS: tuple[TopicSpec, ...] = (
@@ -301,6 +309,7 @@ SYSTEM_TOPICS: tuple[TopicSpec, ...] = (
     BELIEF_SNAPSHOT,
     RADIO,
     *CAMERA_CELLS,
+    CAMERA_FOOTPRINTS,
 )
 
 _AIRCRAFT_NAMESPACE = re.compile(rf"^/{AIRCRAFT_PREFIX}(0|[1-9][0-9]*)$")
@@ -367,6 +376,7 @@ __all__ = [
     "BELIEF_REQUEST",
     "BELIEF_SNAPSHOT",
     "CAMERA_CELLS",
+    "CAMERA_FOOTPRINTS",
     "CLOCK",
     "CLOCK_QOS",
     "DEADLINE_STATUS",
