@@ -25,6 +25,13 @@ Topics used (one episode per bag):
   replaces the earlier one of the same step), otherwise by order.
 * ``/wildfire/belief`` (belief approach only): its first message is the initial belief (the
   ignition seed); the belief is then rebuilt decision by decision.
+* Noisy sensing (``metadata.yaml`` ``custom_data`` ``wildfire.sensor``, e.g. ``camera,0.1``,
+  written by ``wildfire run --record``): the reports are drawn again, as the agents drew
+  them (each aircraft's own seeded stream, from the recorded poses and fire maps), and fused
+  into the filtered belief as the aggregator did; the seed and shape come from the first
+  ``/wildfire/episode`` status. The belief approach only (the observation approach's camera
+  images are not built), and the recording must hold the start pose (the draws run from
+  decision 1).
 
 The last transition is terminal when its decision ended a fire step with fire within
 ``border_cells`` of the edge (the environment's rule); otherwise the bag simply ends (Ctrl-C or
@@ -50,15 +57,17 @@ from wildfire_agent.dynamics import (
     apply_action,
 )
 from wildfire_agent.rewards import FireFieldMaps, fire_field_maps, observation_rewards
+from wildfire_belief import sensors
 from wildfire_belief.belief import SharedBelief
 from wildfire_belief.visits import visit_windows, visited_cells
+from wildfire_learning.bag_sensing import NoisySensing, recorded_sensing
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
 from wildfire_msgs_py import codecs, contract
 from wildfire_msgs_py.errors import WildfireRosError
-from wildfire_msgs_py.system_codecs import stamped_state_from_msg
-from wildfire_ros.bag import SENSOR_KEY, bag_info, read_custom_data, read_messages
+from wildfire_msgs_py.system_codecs import episode_from_msg, stamped_state_from_msg
+from wildfire_ros.bag import bag_info, read_messages
 from wildfire_sim.episode import (
     DECISION_PERIOD_NS,
     DECISIONS_PER_FIRE_STEP,
@@ -84,6 +93,10 @@ class Recording(NamedTuple):
     actions: np.ndarray | None = None
     """(T0, N) int64 recorded actions of decisions first_decision + 1 .., or None (a bag
     without ``/uavK/action``)."""
+    sensing: tuple[str, float] = ("disc", 0.0)
+    """The aircraft's sensor and pixel error of the run."""
+    episode: tuple[int, str] | None = None
+    """Seed and shape of the episode (first ``/wildfire/episode`` status), if recorded."""
 
 
 class RebuiltSequence(NamedTuple):
@@ -167,18 +180,10 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
             f"bag {bag}: recorded under limited radio links ({contract.RADIO.resolve(0)}): "
             "rebuilding its transitions is not supported (record with ideal links)"
         )
-    try:  # bags from before the key, or repaired after a crash: the paper's disc
-        sensing = read_custom_data(bag).get(SENSOR_KEY, "disc,0.0")
-    except OSError:
-        sensing = "disc,0.0"
-    sensor, _, pixel_error = sensing.partition(",")
-    if sensor != "disc" or pixel_error.strip() not in ("", "0", "0.0"):
-        # The team fused noisy reports into a probability; the rebuild knows the disc only.
-        raise LearningError(
-            f"bag {bag}: recorded under noisy sensing ({sensing}): rebuilding its "
-            "transitions is not built yet (record with --sensor disc)"
-        )
-    required = [contract.FIRE_MAP.name] + ([contract.BELIEF.name] if need_belief else [])
+    sensing = recorded_sensing(bag)
+    noisy = sensors.noisy(*sensing)
+    belief_topic = [contract.BELIEF.name] if need_belief and not noisy else []
+    required = [contract.FIRE_MAP.name] + belief_topic + ([contract.EPISODE.name] if noisy else [])
     missing = [t for t in required if t not in topics]
     if not aircraft:
         missing.append("/uavK/state")
@@ -202,8 +207,8 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
     use_actions = all(t in topics for t in action_topics)
     wanted = [contract.FIRE_MAP.name, *state_topics] + (list(cmd_topics) if use_cmds else [])
     wanted += list(action_topics) if use_actions else []
-    if need_belief:
-        wanted.append(contract.BELIEF.name)
+    wanted += belief_topic + ([contract.EPISODE.name] if noisy else [])
+    episode: tuple[int, str] | None = None
 
     fire: list[tuple[int, np.ndarray]] = []
     states: list[list[np.ndarray]] = [[] for _ in aircraft]
@@ -235,6 +240,9 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
                 fire.append((_stamp_ns(record.message), grid))
             elif record.topic == contract.BELIEF.name and belief is None:
                 belief = codecs.belief_from_msg(record.message)
+            elif record.topic == contract.EPISODE.name and episode is None:
+                status = episode_from_msg(record.message).values
+                episode = int(status.get("seed", -1)), status.get("shape", "")
     except WildfireRosError as error:
         raise LearningError(str(error)) from None
     if not fire:
@@ -249,7 +257,14 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
         if decisions < 1:
             raise LearningError(f"bag {bag}: fewer than two poses per aircraft")
         return Recording(
-            _place_fire_maps(fire, bag), state_array, first, cmd_array, belief, action_array
+            _place_fire_maps(fire, bag),
+            state_array,
+            first,
+            cmd_array,
+            belief,
+            action_array,
+            sensing,
+            episode,
         )
 
     # Align the aircraft: the same number of poses (a Ctrl-C may cut one stream short).
@@ -275,6 +290,8 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
         bank_cmds=_per_decision(cmds, 0, decisions, np.float64) if use_cmds else None,
         initial_belief=belief,
         actions=_per_decision(actions, 0, decisions, np.int64) if use_actions else None,
+        sensing=sensing,
+        episode=episode,
     )
 
 
@@ -337,7 +354,15 @@ def rebuild_transitions(
         actions = actions_from_banks(states[:-1, :, 3], states[1:, :, 3])
 
     belief = SharedBelief(1)
-    if approach == Approach.BELIEF:
+    noisy = NoisySensing.of(
+        recording.sensing,
+        recording.episode,
+        recording.first_decision,
+        recording.states.shape[1],
+        approach,
+        config.preburn_steps,
+    )
+    if approach == Approach.BELIEF and noisy is None:
         if recording.initial_belief is None:
             raise LearningError("bag: the belief approach needs /wildfire/belief")
         belief.reset([0], recording.initial_belief)
@@ -358,7 +383,9 @@ def rebuild_transitions(
             bank_steps=bank_steps[i][None],
         )
         team = 0
-        if approach == Approach.BELIEF and t >= 1:
+        if noisy is not None and t >= 1:
+            team = noisy.sense(pose, burning)
+        elif approach == Approach.BELIEF and t >= 1:
             # Decision t moved the aircraft, then visited (the environment's order).
             belief.tick()
             env_idx, cell = visited_cells(visit_windows(pose.x_m, pose.y_m))
@@ -378,6 +405,9 @@ def rebuild_transitions(
             )[0]
         if approach == Approach.OBS:
             image = sensor_images(burning[None], pose)[0]
+        elif noisy is not None:
+            believed, ages = noisy.team.burning, noisy.team.age_s()
+            image = belief_images(believed[None], ages[None], pose)[0]
         else:
             image = belief_images(belief.burning, belief.age_s(), pose)[0]
         images.append(codec.encode(image))
