@@ -38,7 +38,7 @@ from wildfire_agent import camera
 from wildfire_agent.dynamics import AircraftState
 from wildfire_belief.filtered_aggregator import score_rule
 from wildfire_belief.filtered_belief import LogOddsBelief
-from wildfire_belief.visits import visit_windows, window_values
+from wildfire_belief.visits import visit_windows
 from wildfire_belief.wind_filter import NUM_PARTICLES, WindFilter
 from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.seeding import Stream, generator
@@ -53,20 +53,15 @@ class SensorWindows(NamedTuple):
     """(E, N) column of that cell."""
     seen: np.ndarray
     """(E, N, C, H, W) bool: cell seen by the aircraft's sensor C (cameras, or 1 disc)."""
-    truth: np.ndarray
-    """(E, N, H, W) bool: the true burning value of each window cell."""
 
 
-def sensor_windows(sensor: str, pose: AircraftState, truth: np.ndarray) -> SensorWindows:
-    """The windows of ``sensor`` for aircraft at ``pose`` (fields (E, N)) over (E, H, W)
-    ``truth``."""
+def sensor_windows(sensor: str, pose: AircraftState) -> SensorWindows:
+    """The windows of ``sensor`` for aircraft at ``pose`` (fields (E, N))."""
     if sensor == "camera":
         cameras = camera.camera_windows(pose.x_m, pose.y_m, pose.heading_rad, pose.bank_steps)
-        values = camera.window_values(truth, cameras).astype(bool)
-        return SensorWindows(cameras.row0, cameras.col0, cameras.seen, values)
+        return SensorWindows(cameras.row0, cameras.col0, cameras.seen)
     disc = visit_windows(pose.x_m, pose.y_m)
-    values = window_values(truth, disc).astype(bool)
-    return SensorWindows(disc.row0, disc.col0, disc.visited[:, :, None], values)
+    return SensorWindows(disc.row0, disc.col0, disc.visited[:, :, None])
 
 
 class TeamSensing:
@@ -131,15 +126,14 @@ class TeamSensing:
             belief.set_wind([e], particles.wind_estimate())
         if stepped.size:
             belief.predict(stepped)
-        windows = sensor_windows(self.sensor, pose, truth)
-        seen = windows.seen[envs]
+        windows = sensor_windows(self.sensor, pose)
         rngs = [rng for e in envs.tolist() for rng in self.rngs[e]]
-        truth_windows = windows.truth[envs]
-        index, value = camera.report_values(truth_windows, seen, rngs, self.pixel_error)
+        index, wrong = camera.report_flips(windows.seen[envs], rngs, self.pixel_error)
         k, aircraft, _, i, j = index
         env = envs[k]
         cell = (windows.row0[env, aircraft] + i) * GRID_SIZE + windows.col0[env, aircraft] + j
-        wrong = value != truth_windows[k, aircraft, i, j]
+        # The truth of the reported cells only (a seen cell is always on the map).
+        value = truth.reshape(len(active), -1)[env, cell].astype(bool) ^ wrong
         self.reports += np.bincount(env, minlength=len(active))
         self.flipped += np.bincount(env[wrong], minlength=len(active))
         belief.update(env, cell, value)
