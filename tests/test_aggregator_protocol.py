@@ -157,3 +157,30 @@ def test_a_restart_without_copies_starts_from_the_ignition_after_the_timeout() -
     out = protocol.on_startup(lambda: True)
     assert [type(o) for o in out] == [LogOut, BeliefOut, AckOut] and out[0].warning
     assert np.array_equal(out[1].burning, IGNITION)
+
+
+def test_under_cameras_a_tick_waits_for_every_camera_and_its_fire_map() -> None:
+    from wildfire_agent.aircraft_sensor import AircraftSensor
+    from wildfire_belief.filtered_aggregator import FilteredAggregator
+
+    seed = 3
+    filtered = FilteredAggregator(seed, "circular", 0.1)
+    protocol = AggregatorProtocol(
+        1, Mode.LOCKSTEP, IGNITION, lambda: 0, 3.0, Clock(), filtered=filtered, sources=4
+    )
+    protocol.on_status(status(-1, "waiting"))
+    protocol.on_startup(lambda: True)
+    protocol.on_status(status(0))
+    protocol.on_status(status(1))
+    pose = AircraftState(np.array([480.0]), np.array([300.0]), np.ones(1), np.array([2]))
+    reports = AircraftSensor("camera", 0.1, seed, 0).report(pose, IGNITION)
+    for c, report in enumerate(reports):
+        assert protocol.on_visit(c, TICK, report) == []  # no fire map yet: no score
+    out = protocol.on_fire_map(0, IGNITION)  # tick 1 holds the fire map of tick 0
+    assert [type(o) for o in out] == [BeliefOut, AckOut]
+    reference = FilteredAggregator(seed, "circular", 0.1)
+    reference.merge(list(reports), IGNITION)
+    belief = out[0]
+    assert belief.score == reference.score and belief.probability is not None
+    np.testing.assert_array_equal(belief.probability, reference.probability())
+    np.testing.assert_array_equal(belief.burning, reference.burning)
