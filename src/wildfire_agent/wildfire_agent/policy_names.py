@@ -12,6 +12,8 @@
 * ``belief-radio`` — the shipped belief network trained under limited radio links
   (``--comm range=300,loss=0.2``: each aircraft on its own replica;
   ``models/belief_radio_policy.pt``);
+* ``belief-camera`` — the shipped belief network trained under camera sensing
+  (``--sensor camera --pixel-error 0.1``: the filtered belief; ``models/belief_camera_policy.pt``);
 * anything ending in ``.pt`` or naming an existing file — a TorchScript Q-network.
 
 A policy flies a set of aircraft: one for an agent node's aircraft policy, every aircraft of every
@@ -51,10 +53,14 @@ BUILTIN_POLICIES = (*PLANNER_POLICIES, "random")
 """Policies with no file (and so no model card)."""
 RADIO_POLICY = "belief-radio"
 """The belief network trained under limited radio links."""
-SHIPPED_POLICIES = (*APPROACHES, RADIO_POLICY)
-"""Names of the shipped Q-networks (one per approach, and the radio-trained belief network)."""
+CAMERA_POLICY = "belief-camera"
+"""The belief network trained under camera sensing."""
+SHIPPED_POLICIES = (*APPROACHES, RADIO_POLICY, CAMERA_POLICY)
+"""Names of the shipped Q-networks (one per approach, and the belief network trained under
+limited radio links and under camera sensing)."""
 EXPECTED_POLICIES = (
-    "rh, rh-paper, rh-belief, random, obs, belief, belief-radio or a TorchScript .pt file"
+    "rh, rh-paper, rh-belief, random, obs, belief, belief-radio, belief-camera or a "
+    "TorchScript .pt file"
 )
 """How an error message names what a policy may be."""
 ORACLE_POLICY = "oracle"
@@ -66,8 +72,8 @@ EVAL_ONLY_POLICIES = (ORACLE_POLICY,)
 FILELESS_POLICIES = (*BUILTIN_POLICIES, *EVAL_ONLY_POLICIES)
 """Policy names with no policy file (and so no model card) behind them."""
 MODELS_DIR = Path(__file__).resolve().parents[3] / "models"
-"""Shipped policies (``obs_policy.pt``, ``belief_policy.pt``, ``belief_radio_policy.pt``) in
-the repository."""
+"""Shipped policies (``obs_policy.pt``, ``belief_policy.pt``, ``belief_radio_policy.pt``,
+``belief_camera_policy.pt``) in the repository."""
 
 Policy = RecedingHorizonPolicy | RandomPolicy | TorchScriptPolicy
 """A policy flying a set of aircraft (what :meth:`PolicyFactory.build` returns)."""
@@ -164,6 +170,7 @@ def make_policy(
 __all__ = [
     "BELIEF_PLANNER",
     "BUILTIN_POLICIES",
+    "CAMERA_POLICY",
     "EVAL_ONLY_POLICIES",
     "EXPECTED_POLICIES",
     "FILELESS_POLICIES",

@@ -180,8 +180,9 @@ def add_episode_arguments(
     parser.add_argument(
         "--policy",
         default="rh",
-        help="rh (our receding horizon), rh-paper (the paper's, uncoordinated), random, obs, "
-        "belief, belief-radio (shipped models; belief-radio trained under limited radio links) "
+        help="rh (our receding horizon), rh-paper (the paper's, uncoordinated), rh-belief (rh on "
+        "the believed map), random, obs, belief, belief-radio, belief-camera (shipped models; "
+        "belief-radio trained under limited radio links, belief-camera under camera sensing) "
         "or a TorchScript .pt",
     )
     parser.add_argument("--aircraft", type=positive_int, default=2, metavar="N")

@@ -6,6 +6,7 @@ import argparse
 
 from wildfire_agent.policy_names import FILELESS_POLICIES, resolve_policy_path
 from wildfire_belief.radio import IDEAL, CommModel
+from wildfire_belief.sensors import noisy
 from wildfire_cli.common import (
     UserError,
     add_device_argument,
@@ -48,8 +49,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "--card",
         action="store_true",
         help="record the result in the policy's JSON model card (key "
-        "test_evaluations.<shape>_<N>aircraft, with _wind<WX,WY> or "
-        "_maxwind<W> appended for those); Q-network policies only",
+        "test_evaluations.<shape>_<N>aircraft, with _wind<WX,WY> or _maxwind<W>, "
+        "_comm<MODEL> and _sensor<SENSOR>,p=<P> appended for those); Q-network policies only",
     )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
@@ -61,16 +62,22 @@ def card_key(
     wind: tuple[float, float] | None,
     max_wind: float | None,
     comm: CommModel = IDEAL,
+    sensing: tuple[str, float] = ("disc", 0.0),
 ) -> str:
     """Key of an evaluation in a model card: ``circular_2aircraft`` under the default random
-    wind and ideal links, with the wind setting and the radio model appended otherwise (so
-    it never replaces the default's)."""
+    wind, ideal links and the perfect disc, with the wind setting, the radio model and the
+    sensing appended otherwise (so it never replaces the default's), e.g.
+    ``circular_2aircraft_sensorcamera,p=0.1``."""
     key = Scenario(shape, aircraft).key
     if wind is not None:
         key = f"{key}_wind{wind[0]:g},{wind[1]:g}"
     elif max_wind is not None:
         key = f"{key}_maxwind{max_wind:g}"
-    return key if comm.ideal else f"{key}_comm{comm}"
+    if not comm.ideal:
+        key = f"{key}_comm{comm}"
+    if noisy(*sensing):
+        key = f"{key}_sensor{sensing[0]},p={sensing[1]:g}"
+    return key
 
 
 def run(args: argparse.Namespace) -> int:
@@ -131,7 +138,10 @@ def run(args: argparse.Namespace) -> int:
     if args.card:
         from wildfire_learning.export import record_evaluation
 
-        scenario = card_key(shape.value, args.aircraft, args.wind, args.max_wind, config.comm)
+        sensing = (config.sensor, config.pixel_error)
+        scenario = card_key(
+            shape.value, args.aircraft, args.wind, args.max_wind, config.comm, sensing
+        )
         card = record_evaluation(resolve_policy_path(args.policy), scenario, result)
         if not args.json:
             print(f"recorded {scenario} in {card}")

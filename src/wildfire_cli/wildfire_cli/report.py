@@ -73,9 +73,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         nargs="+",
         default=None,
         metavar="POLICY",
-        help="rh, rh-paper, rh-belief, random, obs, belief, belief-radio (shipped models) or "
-        f"TorchScript .pt files (default: {' '.join(DEFAULT_POLICIES)}; under noisy sensing "
-        f"{' '.join(NOISY_DEFAULT_POLICIES)})",
+        help="rh, rh-paper, rh-belief, random, obs, belief, belief-radio, belief-camera (shipped "
+        f"models) or TorchScript .pt files (default: {' '.join(DEFAULT_POLICIES)}; under noisy "
+        f"sensing {' '.join(NOISY_DEFAULT_POLICIES)})",
     )
     # The option's name before "policy" became the one word for it, kept for old scripts.
     parser.add_argument("--controllers", nargs="+", dest="policies", help=argparse.SUPPRESS)

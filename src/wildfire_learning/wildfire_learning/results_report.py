@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from wildfire_agent.approaches import APPROACHES
-from wildfire_agent.policy_names import ORACLE_POLICY, RADIO_POLICY
+from wildfire_agent.policy_names import CAMERA_POLICY, ORACLE_POLICY, RADIO_POLICY
 from wildfire_belief.radio import IDEAL, CommModel
 from wildfire_learning.errors import LearningError
 from wildfire_learning.summary_stats import standard_error
@@ -37,6 +37,7 @@ POLICY_LABELS = {
     "obs": "observation DQN",
     "belief": "belief DQN",
     RADIO_POLICY: "belief DQN (radio-trained)",
+    CAMERA_POLICY: "belief DQN (camera-trained)",
     "rh": "receding horizon",
     "rh-paper": "receding horizon (paper)",
     "random": "random",
