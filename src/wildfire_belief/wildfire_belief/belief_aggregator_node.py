@@ -198,6 +198,8 @@ class BeliefAggregatorNode(Node):
         self.publish(self.protocol.on_startup(visits_matched))
         if self.protocol.started:
             self.destroy_timer(self.startup_timer)
+            topics = ", ".join(spec.resolve(k) for k in range(self.n) for spec in self.report_specs)
+            self.get_logger().info(f"started: merging {topics}")
 
     def visit_callback(self, source: int, msg: Any) -> None:
         self.publish(self.protocol.on_visit(source, *checked_visit(msg, self.window_side)))

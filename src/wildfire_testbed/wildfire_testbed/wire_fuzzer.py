@@ -66,6 +66,11 @@ def _odd_values_grid(_: int) -> Any:
     return codecs.grid_to_msg(np.full((100, 100), 37, dtype=np.int8), 0)
 
 
+def _over_100_percent_grid(_: int) -> Any:
+    # A belief is a percentage (0..100); a fire map only 0 or 100.
+    return codecs.grid_to_msg(np.full((100, 100), 120, dtype=np.int8), 0)
+
+
 def _wrong_frame_grid(_: int) -> Any:
     return codecs.grid_to_msg(np.full((100, 100), 100, dtype=np.int8), 0, frame_id="odom")
 
@@ -172,7 +177,7 @@ CASES: tuple[Case, ...] = (
     Case("fire map: future", C.FIRE_MAP, _future_grid),
     Case("fuel map: data length", C.FUEL_MAP, _bad_length_grid),
     Case("belief: data length", C.BELIEF, _bad_length_grid),
-    Case("belief: values", C.BELIEF, _odd_values_grid),
+    Case("belief: values", C.BELIEF, _over_100_percent_grid),
     Case("belief age: data length", C.BELIEF_AGE, _bad_length_grid),
     Case("exact ages: NaN", C.BELIEF_AGE_EXACT, _nan_ages),
     Case("exact ages: encoding", C.BELIEF_AGE_EXACT, _bad_encoding_ages),
