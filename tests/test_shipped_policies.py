@@ -23,6 +23,7 @@ POLICIES = {
     "obs": ("obs", SCENARIOS),
     "belief": ("belief", SCENARIOS),
     "belief-radio": ("belief", (*SCENARIOS, "circular_2aircraft_commrange=300,loss=0.2")),
+    "belief-camera": ("belief", ("circular_2aircraft", "circular_2aircraft_sensorcamera,p=0.1")),
 }
 
 

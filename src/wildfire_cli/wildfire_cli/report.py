@@ -53,7 +53,7 @@ from wildfire_learning.results_report import (
 from wildfire_learning.vec_policies import make_vec_policy
 
 DEFAULT_POLICIES = ("obs", "belief", "rh", "rh-paper", "random")
-NOISY_DEFAULT_POLICIES = ("belief", "rh", "rh-belief", "rh-paper", "random")
+NOISY_DEFAULT_POLICIES = ("belief", "belief-camera", "rh", "rh-belief", "rh-paper", "random")
 """Under noisy sensing: the observation approach's noisy images are not built yet."""
 SWEEP_FILES = ("comm_sweep.md", "comm_sweep.json", "comm_sweep.png")
 """What ``--comm-sweep`` writes into the report folder."""
