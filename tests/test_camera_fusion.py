@@ -70,3 +70,16 @@ def test_bad_sensor_parameters_name_what_was_expected(
 ) -> None:
     with pytest.raises(AgentConfigError, match=names):
         check_sensing(sensor, pixel_error)
+
+
+def test_a_restarted_filtered_belief_continues_from_a_copy() -> None:
+    from wildfire_belief.filtered_aggregator import FilteredAggregator
+
+    rng = np.random.default_rng(4)
+    believed = rng.random((100, 100)) < 0.2
+    ages = np.rint(rng.random((100, 100)) * 500) / 10
+    team = FilteredAggregator(7, "circular", 0.1)
+    team.restore(12.3, 40.0, believed, ages)
+    assert (team.ticks, team.score) == (123, 40)
+    np.testing.assert_array_equal(team.burning, believed)
+    np.testing.assert_allclose(team.age_s(), ages, atol=1e-4)

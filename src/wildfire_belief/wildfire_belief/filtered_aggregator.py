@@ -24,6 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from wildfire_belief.aggregator import Window
+from wildfire_belief.belief import TICKS_PER_S
 from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, EPISODE_DEFAULTS, initial_fire
 from wildfire_sim.grid import GRID_SIZE
@@ -132,11 +133,11 @@ class FilteredAggregator:
         """Continue from an agent's copy (believed and ages only): each cell at the log-odds
         of one report's worth on its believed side, the probabilities themselves are lost."""
         belief = self.belief
-        now = round(time_s * 10)
+        now = round(time_s * TICKS_PER_S)
         belief.now[0] = now
         weight = min(belief.report_log_odds, belief.max_log_odds)
         belief.log_odds[0] = np.where(np.asarray(believed, bool), weight, -weight)
-        belief.last_report[0] = now - np.rint(np.asarray(age_s) * 10).astype(np.int64)
+        belief.last_report[0] = now - np.rint(np.asarray(age_s) * TICKS_PER_S).astype(np.int64)
         self.score = round(score)
 
 
