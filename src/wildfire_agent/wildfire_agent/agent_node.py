@@ -135,7 +135,7 @@ class AgentNode(Node):
         self.stamped_pub = publisher(contract.STATE_STAMPED)
         # What the sensor reports: the visit window, or one window per camera.
         camera = protocol.sensor.sensor == "camera"
-        self.report_specs = contract.CAMERA_CELLS if camera else (contract.VISIT,)
+        self.report_specs = contract.report_topics(protocol.sensor.sensor)
         self.report_pubs = [publisher(spec) for spec in self.report_specs]
         self.footprint_pub = publisher(contract.CAMERA_FOOTPRINTS) if camera else None
         self.diagnostics_pub = publisher(contract.DIAGNOSTICS)

@@ -132,7 +132,7 @@ class BeliefAggregatorNode(Node):
             sources=sensors_of(sensor),
         )
         # Where the reports come from: the visit window, or one window per camera.
-        self.report_specs = contract.CAMERA_CELLS if sensor == "camera" else (contract.VISIT,)
+        self.report_specs = contract.report_topics(sensor)
         self.window_side = report_window(sensor)
         self.input_guard = InputGuard(self.get_logger().warning)
 

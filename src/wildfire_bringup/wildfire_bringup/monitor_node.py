@@ -145,7 +145,7 @@ class RunMonitorNode(Node):
             subscribe(contract.STATE_STAMPED, lambda msg, k=k: self.state_callback(k, msg), k)
         self.radio_bytes = np.zeros(n_aircraft, dtype=np.int64)
         self.radio_messages = np.zeros(n_aircraft, dtype=np.int64)
-        report_specs = contract.CAMERA_CELLS if sensor == "camera" else (contract.VISIT,)
+        report_specs = contract.report_topics(sensor)
         for k in range(n_aircraft if union_score else 0):
             for c, spec in enumerate(report_specs):
                 source = k * self.sources + c

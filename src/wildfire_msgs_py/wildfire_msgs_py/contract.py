@@ -275,6 +275,13 @@ CAMERA_CELLS: tuple[TopicSpec, ...] = tuple(
     for i in range(4)
 )
 """Per-camera report windows under ``--sensor camera`` (the disc's go on ``visit``)."""
+
+
+def report_topics(sensor: str) -> tuple[TopicSpec, ...]:
+    """The per-aircraft topics an aircraft's sensor reports on: one per camera, or ``visit``."""
+    return CAMERA_CELLS if sensor == "camera" else (VISIT,)
+
+
 CAMERA_FOOTPRINTS = TopicSpec(
     "camera/footprints",
     "visualization_msgs/msg/MarkerArray",
@@ -404,6 +411,7 @@ __all__ = [
     "aircraft_namespace",
     "aircraft_topic",
     "base_link_frame",
+    "report_topics",
     "spec_for",
     "topics_for",
 ]
