@@ -39,11 +39,6 @@ def visit_window(state: AircraftState, burning: np.ndarray) -> VisitWindow:
     )
 
 
-def noisy(sensor: str, pixel_error: float) -> bool:
-    """Whether the team keeps the filtered belief (anything but the perfect disc)."""
-    return sensor != "disc" or pixel_error > 0.0
-
-
 class AircraftSensor:
     """Sensor of aircraft ``k`` in episode ``seed``."""
 

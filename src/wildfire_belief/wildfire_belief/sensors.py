@@ -33,6 +33,19 @@ def noisy(sensor: str, pixel_error: float) -> bool:
     return sensor != "disc" or pixel_error > 0.0
 
 
+def sensing_text(sensor: str, pixel_error: float) -> str:
+    """A run's sensing as one string, e.g. ``camera,0.1`` (what a bag records)."""
+    return f"{sensor},{pixel_error!r}"
+
+
+def parse_sensing(text: str) -> tuple[str, float]:
+    """:func:`sensing_text` back to (sensor, pixel error); ValueError if it is not one."""
+    sensor, _, error = text.partition(",")
+    sensing = sensor, float(error or 0.0)
+    check_sensing(*sensing)
+    return sensing
+
+
 def sensors_of(sensor: str) -> int:
     """Report windows per aircraft and decision: one per camera, or the one disc."""
     return NUM_CAMERAS if sensor == "camera" else 1
@@ -50,6 +63,8 @@ __all__ = [
     "SENSORS",
     "check_sensing",
     "noisy",
+    "parse_sensing",
     "report_window",
+    "sensing_text",
     "sensors_of",
 ]

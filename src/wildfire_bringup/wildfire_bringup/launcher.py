@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from wildfire_belief.sensors import noisy
+from wildfire_belief.sensors import noisy, sensing_text
 from wildfire_bringup.monitor_node import REPORTER, RunMonitorNode
 from wildfire_bringup.partition_schedule import PartitionSchedule
 from wildfire_ros.network_defaults import apply_local_network_defaults
@@ -395,7 +395,7 @@ class Launcher:
 
                 # Lockstep bags log sim time (/clock), so `bag play` replays them at sim pace.
                 # The world of the run travels with its bag (what rebuilding needs to know).
-                sensing = {SENSOR_KEY: f"{self.spec.sensor},{self.spec.pixel_error!r}"}
+                sensing = {SENSOR_KEY: sensing_text(self.spec.sensor, self.spec.pixel_error)}
                 self.recorder = BagRecorder(
                     self.spec.record_dir,
                     discovery_period=0.2,

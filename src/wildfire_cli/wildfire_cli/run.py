@@ -284,7 +284,7 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         # Lockstep: the score is the union's; the ground station's beside it (short of it when
         # the aggregator died mid-flight under limited links).
         result["aggregator_score"] = round(monitor.ground_score)
-    filtered = getattr(monitor, "filtered", None)
+    filtered = monitor.filtered
     if filtered is not None:
         result |= {"sensor": spec.sensor, "pixel_error": spec.pixel_error}
         result["false_alarms"] = filtered.false_alarms

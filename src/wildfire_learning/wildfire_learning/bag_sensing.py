@@ -27,19 +27,17 @@ from wildfire_ros.bag import SENSOR_KEY, read_custom_data
 
 def recorded_sensing(bag: Path) -> tuple[str, float]:
     """The sensor and pixel error a bag was recorded with (the paper's disc if unsaid)."""
+    disc = sensors.sensing_text("disc", 0.0)
     try:  # bags from before the key, or repaired after a crash: the paper's disc
-        text = read_custom_data(bag).get(SENSOR_KEY, "disc,0.0")
+        text = read_custom_data(bag).get(SENSOR_KEY, disc)
     except OSError:
-        text = "disc,0.0"
-    sensor, _, error = text.partition(",")
+        text = disc
     try:
-        sensing = sensor, float(error or 0.0)
-        sensors.check_sensing(*sensing)
+        return sensors.parse_sensing(text)
     except ValueError:
         raise LearningError(
             f"bag {bag}: {SENSOR_KEY} {text!r}: expected <disc|camera>,<pixel error>"
         ) from None
-    return sensing
 
 
 class NoisySensing(NamedTuple):
