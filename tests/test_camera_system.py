@@ -37,8 +37,9 @@ def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str
     from wildfire_msgs_py.system_codecs import stamped_state_from_msg
     from wildfire_ros.bag import SENSOR_KEY, read_custom_data, read_messages
 
-    # rh-belief plans on the believed map: its decisions depend on the fused belief.
-    policy, seed, n, duration = "rh-belief", 2000003, 2, 15.0
+    # The camera-trained network reads the fused belief's probability of burning from
+    # /wildfire/belief (in whole percent): its decisions depend on every report.
+    policy, seed, n, duration = "belief-camera", 2000003, 2, 15.0
     bag = tmp_path / "bag"
     result = subprocess.run(
         [WILDFIRE, "run", "--policy", policy, "--aircraft", str(n), "--sensor", "camera",

@@ -192,9 +192,11 @@ def test_the_belief_grid_keeps_the_believed_side_of_one_half() -> None:
     believed = probability > 0.5
     msg = codecs.belief_to_msg(believed, TICK, probability=probability)
     stamp, decoded = wire_checks.checked_belief_grid(msg)
-    assert stamp == TICK and np.array_equal(decoded, believed)
-    percent = codecs.grid_from_msg(msg)
-    assert np.all(np.abs(percent - probability * 100) <= 1.0)
+    assert stamp == TICK and decoded.dtype == np.float32
+    assert np.array_equal(codecs.believed_burning(decoded), believed)
+    assert np.all(np.abs(decoded - probability) <= 0.01 + 1e-6)
+    # What the environment shows a belief network is exactly what an agent decodes.
+    assert np.array_equal(decoded, codecs.published_probability(believed, probability))
     disc = codecs.belief_to_msg(believed, TICK)
     assert set(np.unique(codecs.grid_from_msg(disc))) == {0, 100}
     odd = codecs.grid_to_msg(np.full((100, 100), 101, dtype=np.int8))

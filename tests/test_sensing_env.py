@@ -38,6 +38,26 @@ def test_the_fraction_of_flipped_reports_is_the_pixel_error(sensor: str) -> None
     assert np.all(np.abs(env.sensing.flipped_fraction() - 0.1) <= 0.01)
 
 
+def test_belief_images_show_the_published_probability_under_noise() -> None:
+    from wildfire_msgs_py.codecs import belief_probability, belief_to_msg, grid_from_msg
+
+    config = EnvConfig(sensor="camera", pixel_error=0.1, observation="belief", reward="belief")
+    env, _ = fly(config, [41], 300)
+    assert env.sensing is not None
+    belief = env.sensing.belief
+    msg = belief_to_msg(belief.believed()[0], probability=belief.probability()[0])
+    shown = env.belief_probability()
+    # Exactly what an agent decodes from /wildfire/belief, and not only 0 or 1.
+    assert np.array_equal(shown[0], belief_probability(grid_from_msg(msg)))
+    assert np.unique(shown).size > 10
+    channel = env.observe()["image"][0, :, 0]
+    assert set(np.unique(channel)) <= set(np.unique(shown)) | {0.0}
+    assert np.unique(channel).size > 2
+    paper = WildfireVecEnv(replace(config, sensor="disc", pixel_error=0.0), 1)
+    paper.reset([41])
+    assert paper.belief_probability().dtype == bool  # the believed map itself
+
+
 def test_a_cell_scores_at_most_once_and_only_while_burning() -> None:
     config = EnvConfig(sensor="camera", pixel_error=0.1, observation="none", reward="belief")
     env, total = fly(config, [21, 22], 900)

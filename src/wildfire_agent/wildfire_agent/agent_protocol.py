@@ -45,7 +45,7 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.receding_horizon import RecedingHorizonConfig
 from wildfire_belief.radio import CommError, CommModel
-from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
+from wildfire_msgs_py.codecs import NodeStatus, VisitWindow, believed_burning
 from wildfire_msgs_py.contract import AIRCRAFT_PREFIX, RADIO_STATUS
 from wildfire_msgs_py.input_guard import (
     DropReason,
@@ -293,8 +293,8 @@ class AgentProtocol:
         inbox.accept(stamp, (message, window_of(message)))
         return self.advance()
 
-    def on_belief(self, stamp: int, burning: np.ndarray) -> list[Output]:
-        return self._keep_belief(self.belief, stamp, burning)
+    def on_belief(self, stamp: int, probability: np.ndarray) -> list[Output]:
+        return self._keep_belief(self.belief, stamp, probability)
 
     def on_ages(self, stamp: int, age_s: np.ndarray) -> list[Output]:
         return self._keep_belief(self.ages, stamp, age_s)
@@ -320,9 +320,8 @@ class AgentProtocol:
             raise RejectedMessage(DropReason.RATE_LIMITED, "belief snapshot sent under 1 s ago")
         self.last_answer_s = now_s
         stamp = common[-1]
-        return BeliefSnapshot(
-            stamp / 1e9, self.score, self.belief.items[stamp], self.ages.items[stamp]
-        )
+        believed = believed_burning(self.belief.items[stamp])
+        return BeliefSnapshot(stamp / 1e9, self.score, believed, self.ages.items[stamp])
 
     # --- real time ----------------------------------------------------------------------------
 

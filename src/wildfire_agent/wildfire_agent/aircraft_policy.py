@@ -26,6 +26,7 @@ from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
 from wildfire_agent.policy_names import BUILTIN_POLICIES, make_policy
 from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
 from wildfire_agent.rewards import FireFieldMaps, ObservationRewardWeights, fire_field_maps
+from wildfire_msgs_py.codecs import believed_burning
 
 BUILTIN = BUILTIN_POLICIES
 
@@ -87,8 +88,10 @@ class AircraftPolicy:
         """Action (0: -5 deg, 1: +5 deg) of the ownship from the team poses, fields (n,).
 
         ``burning`` is the (H, W) truth of this tick (``fire_key`` identifies it, e.g. its
-        stamp, so the planner's maps are computed once per fire step); ``belief`` (H, W)
-        bool and ``age_s`` (H, W) float32 are needed by belief-based networks only.
+        stamp, so the planner's maps are computed once per fire step); ``belief`` (H, W),
+        the team's probability of burning (bool under the disc and in radio replicas,
+        float32 from ``/wildfire/belief``), and ``age_s`` (H, W) float32 are needed by
+        belief-based networks and ``rh-belief`` only.
         """
         k = self.aircraft
         if isinstance(self.policy, RandomPolicy):
@@ -106,7 +109,8 @@ class AircraftPolicy:
                 # The belief changes every decision; only a plan reads the maps, so they are
                 # made only when one is due.
                 if self.policy.due().any() or self._belief_maps is None:
-                    self._belief_maps = fire_field_maps(belief[None], self.weights)
+                    believed = believed_burning(belief)
+                    self._belief_maps = fire_field_maps(believed[None], self.weights)
                 maps = self._belief_maps
             return int(self.policy.act(own, peers, np.zeros(1, dtype=np.int64), maps)[0])
         network: TorchScriptPolicy = self.policy

@@ -5,9 +5,11 @@ See docs/model.md, Shared belief.
 Image pixel ``[i, j]`` shows the belief at the point ``(i - 50) * 10`` m ahead of the aircraft
 and ``(j - 50) * 10`` m to its right: the aircraft sits at pixel (50, 50), rows run forward
 ("up" when drawn with origin at the bottom, as the map is), columns run to the right. So an
-aircraft heading north sees the map itself, translated. Channels: believed burning (0/1) and
-age / 255 (0..1); outside the map: burning 0, age 1 (never seen). Sampling is nearest-cell
-(OpenCV ``warpAffine`` with ``INTER_NEAREST``), so burning stays binary.
+aircraft heading north sees the map itself, translated. Channels: the probability of burning
+(0..1: the believed map, 0 or 1, under the paper's perfect disc) and age / 255 (0..1);
+outside the map: burning 0, age 1 (never seen). Sampling is nearest-cell (OpenCV
+``warpAffine`` with ``INTER_NEAREST``), so every pixel is one cell's value: a binary belief
+stays binary.
 """
 
 from __future__ import annotations
@@ -52,8 +54,9 @@ def ego_images(
 ) -> np.ndarray:
     """Ego belief images of a batch of aircraft.
 
-    ``burning`` (E, H, W) bool and ``age_s`` (E, H, W) are the shared belief; poses are
-    (E, N). Returns (E, N, 2, 100, 100) float32.
+    ``burning`` (E, H, W), the probability of burning (bool or float in [0, 1]), and
+    ``age_s`` (E, H, W) are the shared belief; poses are (E, N). Returns (E, N, 2, 100, 100)
+    float32.
     """
     num_envs, num_aircraft = np.shape(x_m)
     out = np.empty((num_envs, num_aircraft, 2, IMAGE_SIZE, IMAGE_SIZE), dtype=np.float32)

@@ -40,7 +40,12 @@ from wildfire_belief.filtered_aggregator import FilteredAggregator
 from wildfire_belief.sensors import noisy, report_window, sensors_of
 from wildfire_bringup.trajectory import stacked_trajectory
 from wildfire_msgs_py import contract
-from wildfire_msgs_py.codecs import VisitWindow, diagnostics_from_msg, fuel_grid_from_msg
+from wildfire_msgs_py.codecs import (
+    VisitWindow,
+    believed_burning,
+    diagnostics_from_msg,
+    fuel_grid_from_msg,
+)
 from wildfire_msgs_py.input_guard import (
     INPUT_STATUS,
     DropReason,
@@ -186,9 +191,9 @@ class RunMonitorNode(Node):
         self.fuel = fuel_grid_from_msg(msg)
 
     def belief_callback(self, msg: Any) -> None:
-        stamp, belief = checked_belief_grid(msg)
+        stamp, probability = checked_belief_grid(msg)
         self.belief_stamp = self._newer(self.belief_stamp, stamp)
-        self.belief = belief
+        self.belief = believed_burning(probability)
         self._heard("belief_aggregator")
 
     def belief_age_callback(self, msg: Any) -> None:

@@ -406,8 +406,9 @@ def rebuild_transitions(
         if approach == Approach.OBS:
             image = sensor_images(burning[None], pose)[0]
         elif noisy is not None:
-            believed, ages = noisy.team.burning, noisy.team.age_s()
-            image = belief_images(believed[None], ages[None], pose)[0]
+            fused = noisy.team
+            shown = codecs.published_probability(fused.burning, fused.probability())
+            image = belief_images(shown[None], fused.age_s()[None], pose)[0]
         else:
             image = belief_images(belief.burning, belief.age_s(), pose)[0]
         images.append(codec.encode(image))

@@ -370,6 +370,12 @@ class WildfireVecEnv:
         belief's probability > 0.5 under noisy sensing."""
         return self.belief.burning if self.sensing is None else self.sensing.belief.believed()
 
+    def belief_probability(self) -> np.ndarray:
+        """The probability of burning the belief images show, (E, H, W): the believed map
+        (bool) under the paper's disc, the filtered belief in whole percent (as the
+        aggregator publishes it) under noisy sensing."""
+        return self.belief.burning if self.sensing is None else self.sensing.probability()
+
     def belief_age_s(self) -> np.ndarray:
         """Seconds since each cell was last visited (or reported), capped, (E, H, W)."""
         return self.belief.age_s() if self.sensing is None else self.sensing.belief.age_s()
@@ -412,7 +418,7 @@ class WildfireVecEnv:
         if kind == Approach.OBS:
             images = sensor_images(self.truth, self.aircraft)
         elif self.radio is None:
-            images = belief_images(self.believed(), self.belief_age_s(), self.aircraft)
+            images = belief_images(self.belief_probability(), self.belief_age_s(), self.aircraft)
         else:
             images = self.radio.belief_images(self.aircraft)
         return {"image": images, "state": self.pair_states()}

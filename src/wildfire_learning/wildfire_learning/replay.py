@@ -14,10 +14,12 @@ counters: a transition is valid while both its frames are still in the frame rin
 sampling time, invalid draws are redrawn). The frame ring is a little larger than the
 transition ring because every episode start writes one frame without a transition.
 
-Quantisation: every image channel ``c`` is stored as ``round(value * scale[c])``. The
-observation image is binary (scale 1, exact). The belief image is (burning 0/1, age / 255):
-age is stored in whole seconds (scale 255), i.e. to within 0.5 s — a deliberate, documented
-approximation of training inputs (the deployed network sees 0.1 s resolution).
+Quantisation: every image channel ``c`` is stored as ``round(value * scale[c])`` and read
+back as ``stored / scale[c]``. The observation image is binary (scale 1, exact). The belief
+image is (probability of burning, age / 255): the probability in whole percent (scale 100,
+exact: the shared belief is published in whole percent, and is 0 or 1 under the disc); age
+in whole seconds (scale 255), i.e. to within 0.5 s — a deliberate, documented approximation
+of training inputs (the deployed network sees 0.1 s resolution).
 
 Memory at capacity 70 000: observation approach 70 000 x 1.2 kB = 84 MB; belief approach
 70 000 x 20 kB = 1.4 GB.
@@ -37,8 +39,9 @@ from wildfire_learning.errors import LearningError
 
 OBS_SCALES = (1.0,)
 """Quantisation scale of the sensor image (binary)."""
-BELIEF_SCALES = (1.0, 255.0)
-"""Quantisation scales of the belief image: burning (binary), age / 255 -> whole seconds."""
+BELIEF_SCALES = (100.0, 255.0)
+"""Quantisation scales of the belief image: the probability of burning in whole percent (as
+the shared belief carries it; 0 or 100 under the disc), age / 255 -> whole seconds."""
 
 
 @dataclass(frozen=True)
@@ -58,10 +61,10 @@ class ImageCodec:
 
     def decode(self, encoded: torch.Tensor) -> torch.Tensor:
         """(B, C, H, W) uint8 tensor -> float32 tensor (on the device of ``encoded``)."""
-        inverse = torch.tensor(
-            [1.0 / s for s in self.scales], dtype=torch.float32, device=encoded.device
-        )
-        return encoded.to(torch.float32) * inverse[:, None, None]
+        # A division, not a multiplication by 1 / scale: correctly rounded, so a whole percent
+        # reads back as exactly the float32 the environment showed (percent / 100).
+        scales = torch.tensor(self.scales, dtype=torch.float32, device=encoded.device)
+        return encoded.to(torch.float32) / scales[:, None, None]
 
 
 class Batch(NamedTuple):

@@ -20,6 +20,9 @@ decision:
 The belief aggregator node and the run monitor keep the same belief of one episode
 (``wildfire_belief.filtered_aggregator.FilteredAggregator``), in the same order.
 
+The belief network sees the belief in the whole percent the aggregator publishes
+(:meth:`TeamSensing.probability`), so an agent node's network sees exactly its input here.
+
 The flipped fraction (reports that disagree with the truth over all reports) is kept per
 episode, to check the noise is what was asked for.
 
@@ -40,6 +43,7 @@ from wildfire_belief.filtered_aggregator import score_rule
 from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_belief.visits import visit_windows
 from wildfire_belief.wind_filter import NUM_PARTICLES, WindFilter
+from wildfire_msgs_py.codecs import published_probability
 from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.seeding import Stream, generator
 
@@ -148,6 +152,11 @@ class TeamSensing:
         self.scored |= newly
         self.false_alarms += alarms.sum(axis=(1, 2))
         return newly.sum(axis=(1, 2)).astype(np.int64)
+
+    def probability(self) -> np.ndarray:
+        """The filtered belief as the aggregator publishes it, (E, H, W) float32: the
+        probability of burning in whole percent, on the believed side of 50."""
+        return published_probability(self.belief.believed(), self.belief.probability())
 
     def flipped_fraction(self) -> np.ndarray:
         """Reports that disagreed with the truth, over all reports, per episode."""

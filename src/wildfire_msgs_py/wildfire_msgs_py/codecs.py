@@ -187,6 +187,25 @@ def belief_from_msg(msg: Any) -> np.ndarray:
     return grid_from_msg(msg) > BELIEVED_ABOVE
 
 
+def belief_probability(grid: np.ndarray) -> np.ndarray:
+    """The probability of burning of a shared-belief grid (:func:`belief_grid`), float32 in
+    [0, 1]: what a belief network's image shows. Under the disc, 1.0 or 0.0."""
+    return np.asarray(grid).astype(np.float32) / np.float32(FIRE_BURNING)
+
+
+def published_probability(believed: np.ndarray, probability: np.ndarray) -> np.ndarray:
+    """A filtered belief's probability of burning as ``/wildfire/belief`` carries it: in whole
+    percent, on the believed side of 50 (``belief_probability(belief_grid(...))``). The
+    environment and the bag rebuild show the belief network this, so a network in a node
+    sees exactly what it was trained on."""
+    return belief_probability(belief_grid(believed, probability))
+
+
+def believed_burning(probability: np.ndarray) -> np.ndarray:
+    """Believed burning: probability above one half (bool in, bool out too)."""
+    return np.asarray(probability) > 0.5
+
+
 def fuel_grid_to_msg(fuel: np.ndarray, stamp: Any = 0, *, message_class: Any = None) -> Any:
     """Integer fuel (0..100, 0..20 in the model) stored directly in each cell."""
     values = np.asarray(fuel)
@@ -462,7 +481,9 @@ __all__ = [
     "belief_age_to_msg",
     "belief_from_msg",
     "belief_grid",
+    "belief_probability",
     "belief_to_msg",
+    "believed_burning",
     "clock_from_msg",
     "clock_to_msg",
     "diagnostics_from_msg",
@@ -477,6 +498,7 @@ __all__ = [
     "grid_to_msg",
     "odometry_to_pose",
     "pose_to_odometry",
+    "published_probability",
     "score_from_msg",
     "score_to_msg",
     "seconds_from_msg",

@@ -18,12 +18,12 @@ from typing import Any
 import numpy as np
 
 from wildfire_msgs_py.codecs import (
-    BELIEVED_ABOVE,
     FIRE_BURNING,
     FIRE_NOT_BURNING,
     STATE_FIELDS,
     UNKNOWN_CELL,
     VisitWindow,
+    belief_probability,
     float64_from_msg,
     grid_from_msg,
     time_from_msg,
@@ -98,12 +98,12 @@ def checked_fire_grid(msg: Any) -> tuple[int, np.ndarray]:
 
 
 def checked_belief_grid(msg: Any) -> tuple[int, np.ndarray]:
-    """Shared belief (percent of burning) -> (stamp ns, bool believed burning)."""
+    """Shared belief (percent of burning) -> (stamp ns, float32 probability of burning)."""
     stamp = _stamp(msg.header)
     grid = _map_grid(msg)
     if grid.min() < FIRE_NOT_BURNING or grid.max() > FIRE_BURNING:
         raise _reject(DropReason.OUT_OF_RANGE, "belief values outside 0..100")
-    return stamp, grid > BELIEVED_ABOVE
+    return stamp, belief_probability(grid)
 
 
 def checked_age_image(msg: Any) -> tuple[int, np.ndarray]:
