@@ -70,7 +70,9 @@ import numpy as np
 
 from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS
 from wildfire_belief.sensors import CAMERA_WINDOW, CAMERA_WINDOW_HALF, NUM_CAMERAS
-from wildfire_belief.visits import disc_window, window_cells
+from wildfire_belief.visits import cell_offset_m, window_cells, within_radius
+from wildfire_belief.window_runs import WindowRuns, first_true, run_cells, runs_of
+from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
 
 ALTITUDE_M = 200.0
 """Flight altitude h above the ground."""
@@ -152,8 +154,13 @@ class CameraWindows(NamedTuple):
     """Row of the window's southern edge (may be outside the map), int64."""
     col0: np.ndarray
     """Column of the window's western edge (may be outside the map), int64."""
-    seen: np.ndarray
-    """(..., 4, 61, 61) bool: cell seen by the camera (and inside the map)."""
+    runs: WindowRuns
+    """(..., 4, 61) per camera and window row: the run of seen columns (inside the map)."""
+
+    @property
+    def seen(self) -> np.ndarray:
+        """(..., 4, 61, 61) bool: cell seen by the camera (and inside the map)."""
+        return self.runs.mask(CAMERA_WINDOW)
 
 
 def camera_windows(
@@ -164,11 +171,13 @@ def camera_windows(
     ``bank_steps`` is the bank in 5-degree steps, integers in [-10, 10] (as
     ``AircraftState.bank_steps``).
 
-    A footprint is the ground inside four planes through the aircraft: a convex polygon.
-    So in each window row a camera sees one run of columns, whose ends follow from the
-    four edge lines at that row's northing. The per-cell work is then two comparisons
-    against (camera, row) bounds: 5x faster than projecting every cell on the three camera
-    axes (measured at 64 x 2 poses; the same cells are found).
+    A footprint is the ground inside four planes through the aircraft, cut by the 300 m
+    disc and the map: convex. So in each window row a camera sees one run of columns, whose
+    ends follow from the four edge lines and the disc at that row's northing, found exactly
+    (``window_runs.first_true``: the same float comparisons as the per-cell rule). The work
+    is per (camera, row), not per cell: 6x faster than masks of the same runs, which were
+    5x faster than projecting every cell on the three camera axes (measured at 64 x 2
+    poses; the same cells are found).
     """
     x_m, y_m = np.asarray(x_m, dtype=np.float64), np.asarray(y_m, dtype=np.float64)
     heading_rad = np.asarray(heading_rad, dtype=np.float64)
@@ -178,9 +187,21 @@ def camera_windows(
     if np.any(np.abs(bank_steps) > MAX_BANK_STEPS):
         # A negative index would silently wrap to another bank's normals.
         raise ValueError(f"bank_steps must lie in [-{MAX_BANK_STEPS}, {MAX_BANK_STEPS}]")
-    # The cells within range and on the map, the same window rule as the visits'.
-    window = disc_window(x_m, y_m, WINDOW_HALF, RANGE_M)
-    dx, dy, usable = window.dx, window.dy, window.disc  # (..., 61), (..., 61), (..., 61, 61)
+    # The window layout of the visits' disc_window: rows and columns around the aircraft's cell.
+    half, side = WINDOW_HALF, CAMERA_WINDOW
+    row = np.floor(y_m / CELL_SIZE_M).astype(np.int64)
+    col = np.floor(x_m / CELL_SIZE_M).astype(np.int64)
+    rows = row[..., None] + np.arange(-half, half + 1)  # (..., 61)
+    dy = cell_offset_m(rows, y_m[..., None])
+    col_west = (col - half)[..., None, None]  # map column of window column 0
+    x_b = x_m[..., None, None]
+
+    def dx_at(j: np.ndarray) -> np.ndarray:
+        return cell_offset_m(col_west + j, x_b)
+
+    def column_of(dx: np.ndarray) -> np.ndarray:
+        # The real-number window column at east offset dx: the guess of first_true.
+        return (dx + x_b) / CELL_SIZE_M - 0.5 - col_west
 
     normals = _EDGE_NORMALS[bank_steps + MAX_BANK_STEPS]  # (..., 4, 4, 3)
     cos_h = np.cos(heading_rad)[..., None, None]
@@ -198,10 +219,26 @@ def camera_windows(
     lower = np.where(slope > 0, edge, np.where(slope < 0, -np.inf, -keep_all))
     upper = np.where(slope < 0, edge, np.where(slope > 0, np.inf, keep_all))
     lower, upper = lower.max(axis=-2), upper.min(axis=-2)  # (..., 4, 61): per camera and row
-    column_dx = dx[..., None, None, :]
-    seen = (column_dx >= lower[..., None]) & (column_dx <= upper[..., None])
-    seen &= usable[..., None, :, :]
-    return CameraWindows(row0=window.row0, col0=window.col0, seen=seen)
+    first = first_true(lambda j: dx_at(j) >= lower, column_of(lower), side)
+    stop = first_true(lambda j: dx_at(j) > upper, column_of(upper), side)
+
+    # The 300 m disc: per row one run too, around dx = 0.
+    dy_b = dy[..., None, :]  # (..., 1, 61)
+    reach = np.sqrt(np.maximum(RANGE_M**2 - dy_b**2, 0.0))
+
+    def within(j: np.ndarray) -> np.ndarray:
+        return within_radius(dy_b, dx_at(j), RANGE_M)
+
+    near_start = first_true(lambda j: (dx_at(j) >= 0) | within(j), column_of(-reach), side)
+    near_stop = first_true(lambda j: (dx_at(j) > 0) & ~within(j), column_of(reach), side)
+    # The map's columns; its rows, where some cell of the row is in range at all (else the
+    # two searches above meet at a cell with dx = 0 that is not in range either).
+    first = np.maximum(np.maximum(first, near_start), np.clip(-col_west, 0, side))
+    stop = np.minimum(np.minimum(stop, near_stop), np.clip(GRID_SIZE - col_west, 0, side))
+    on_map = (rows >= 0) & (rows < GRID_SIZE)
+    row_usable = within_radius(dy_b, np.zeros(1), RANGE_M) & on_map[..., None, :]
+    stop = np.where(row_usable, np.maximum(stop, first), first)
+    return CameraWindows(row0=row - half, col0=col - half, runs=WindowRuns(first, stop))
 
 
 def camera_cells(x_m: float, y_m: float, heading_rad: float, bank_steps: int) -> list[np.ndarray]:
@@ -239,7 +276,7 @@ def noisy_reports(
         Burning values in each aircraft's window (nonzero is burning), e.g. from
         :func:`window_values`.
     seen : (..., 4, 61, 61) bool
-        The footprints, ``CameraWindows.seen``.
+        The footprints, ``CameraWindows.seen`` (one run of seen cells per row).
     rngs : sequence of numpy.random.Generator
         One generator per aircraft, in C order of the leading dims (for (E, N): aircraft
         ``n`` of environment ``e`` is ``rngs[e * N + n]``). The caller owns them.
@@ -260,56 +297,37 @@ def noisy_reports(
     bit-identical whatever the batch.
     """
     seen = np.asarray(seen, dtype=bool)
-    index, values = report_values(truth, seen, rngs, p)
-    reports = np.zeros(seen.shape, dtype=bool)
-    reports[index] = values
-    return reports
-
-
-def report_values(
-    truth: np.ndarray,
-    seen: np.ndarray,
-    rngs: Sequence[np.random.Generator],
-    p: float = PIXEL_ERROR,
-) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
-    """The reports of :func:`noisy_reports` as a list: ``np.nonzero(seen)`` (aircraft,
-    camera, row, column, in the order the uniforms are drawn) and the reported values.
-
-    What the agent fuses; the environment gathers the truth itself (:func:`report_flips`).
-    """
-    seen = np.asarray(seen, dtype=bool)
-    index, flips = report_flips(seen, rngs, p)
+    index, flips = report_flips(runs_of(seen), rngs, p)
     lead = seen.ndim - 3
     truth = np.asarray(truth, dtype=bool)
     cells = (*index[:lead], *index[lead + 1 :])
-    return index, truth[cells] ^ flips
+    reports = np.zeros(seen.shape, dtype=bool)
+    reports[index] = truth[cells] ^ flips
+    return reports
 
 
 def report_flips(
-    seen: np.ndarray, rngs: Sequence[np.random.Generator], p: float = PIXEL_ERROR
+    runs: WindowRuns, rngs: Sequence[np.random.Generator], p: float = PIXEL_ERROR
 ) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
-    """Which reports flip: ``np.nonzero(seen)`` (aircraft, camera, row, column, in the order
-    the uniforms are drawn) and a bool per report, drawn as :func:`noisy_reports` says.
+    """Which reports flip: the seen cells of footprints ``runs`` ((..., C, rows), e.g.
+    ``CameraWindows.runs``) as indices (aircraft..., camera, row, column, in the order the
+    uniforms are drawn), and a bool per report, drawn as :func:`noisy_reports` says.
 
-    No (..., 4, 61, 61) array of reports or truth is built.
+    No (..., 4, 61, 61) array of reports, truth or footprints is built.
     """
     if not 0.0 <= p <= 1.0:
         raise ValueError(f"p must lie in [0, 1], got {p}")
-    seen = np.asarray(seen, dtype=bool)
-    lead = seen.shape[:-3]
+    lead = runs.first.shape[:-2]
     num_aircraft = int(np.prod(lead, dtype=np.int64))
     if len(rngs) != num_aircraft:
         raise ValueError(f"expected {num_aircraft} generators (one per aircraft), got {len(rngs)}")
     # C order walks aircraft, camera, row, column: each aircraft's cells form one block, in
-    # the order its uniforms are drawn. One flat scan, then the indices: 2.5x faster than
-    # np.nonzero over five dimensions (the same indices).
-    flat = np.flatnonzero(seen)
-    index = np.unravel_index(flat, seen.shape)
-    block = int(np.prod(seen.shape[len(lead) :], dtype=np.int64))
-    counts = np.bincount(flat // block, minlength=num_aircraft)
+    # the order its uniforms are drawn.
+    run, column = run_cells(runs)
+    counts = runs.counts().reshape(num_aircraft, -1).sum(axis=1)
     uniforms = [rng.random(int(count)) for rng, count in zip(rngs, counts, strict=True)]
     flips = np.concatenate(uniforms) < p if uniforms else np.zeros(0, dtype=bool)
-    return index, flips
+    return (*run, column), flips
 
 
 __all__ = [
@@ -332,6 +350,5 @@ __all__ = [
     "camera_windows",
     "noisy_reports",
     "report_flips",
-    "report_values",
     "window_values",
 ]

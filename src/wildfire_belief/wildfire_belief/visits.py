@@ -50,6 +50,18 @@ class DiscWindow(NamedTuple):
     """(..., side, side) bool: cell centre within the radius and the cell inside the map."""
 
 
+def cell_offset_m(cells: np.ndarray, position_m: np.ndarray) -> np.ndarray:
+    """Offset (m) of the centres of cells (row or column indices) from a position along the
+    same axis: the one formula of every window's ``dx`` and ``dy``, so that a footprint
+    computed run by run (``wildfire_agent.camera``) compares the very same floats."""
+    return (cells + 0.5) * CELL_SIZE_M - position_m
+
+
+def within_radius(dy: np.ndarray, dx: np.ndarray, radius_m: float) -> np.ndarray:
+    """Whether offsets (dy, dx) lie within ``radius_m`` (broadcast): the disc's rule."""
+    return dy**2 + dx**2 <= radius_m**2
+
+
 def disc_window(x_m: np.ndarray, y_m: np.ndarray, half: int, radius_m: float) -> DiscWindow:
     """The ``2 half + 1`` cells square window around aircraft at (x, y) (any matching
     shapes), with the cells whose centre lies within ``radius_m``, inside the map. (The
@@ -60,9 +72,9 @@ def disc_window(x_m: np.ndarray, y_m: np.ndarray, half: int, radius_m: float) ->
     col = np.floor(x_m / CELL_SIZE_M).astype(np.int64)
     rows = row[..., None] + offsets  # (..., side)
     cols = col[..., None] + offsets
-    dy = (rows + 0.5) * CELL_SIZE_M - y_m[..., None]
-    dx = (cols + 0.5) * CELL_SIZE_M - x_m[..., None]
-    within = dy[..., :, None] ** 2 + dx[..., None, :] ** 2 <= radius_m**2
+    dy = cell_offset_m(rows, y_m[..., None])
+    dx = cell_offset_m(cols, x_m[..., None])
+    within = within_radius(dy[..., :, None], dx[..., None, :], radius_m)
     row_inside = (rows >= 0) & (rows < GRID_SIZE)
     col_inside = (cols >= 0) & (cols < GRID_SIZE)
     disc = within & row_inside[..., :, None] & col_inside[..., None, :]
@@ -128,9 +140,11 @@ __all__ = [
     "WINDOW_HALF",
     "DiscWindow",
     "VisitWindows",
+    "cell_offset_m",
     "disc_window",
     "visit_windows",
     "visited_cells",
     "window_cells",
     "window_values",
+    "within_radius",
 ]

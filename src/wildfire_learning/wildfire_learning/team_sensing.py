@@ -43,6 +43,7 @@ from wildfire_belief.filtered_aggregator import score_rule
 from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_belief.visits import visit_windows
 from wildfire_belief.wind_filter import NUM_PARTICLES, WindFilter
+from wildfire_belief.window_runs import WindowRuns, runs_of
 from wildfire_msgs_py.codecs import published_probability
 from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.seeding import Stream, generator
@@ -55,17 +56,17 @@ class SensorWindows(NamedTuple):
     """(E, N) row of each window's south-west cell (may lie off the map)."""
     col0: np.ndarray
     """(E, N) column of that cell."""
-    seen: np.ndarray
-    """(E, N, C, H, W) bool: cell seen by the aircraft's sensor C (cameras, or 1 disc)."""
+    runs: WindowRuns
+    """(E, N, C, rows): the cells each sensor C (cameras, or 1 disc) sees, row by row."""
 
 
 def sensor_windows(sensor: str, pose: AircraftState) -> SensorWindows:
     """The windows of ``sensor`` for aircraft at ``pose`` (fields (E, N))."""
     if sensor == "camera":
         cameras = camera.camera_windows(pose.x_m, pose.y_m, pose.heading_rad, pose.bank_steps)
-        return SensorWindows(cameras.row0, cameras.col0, cameras.seen)
+        return SensorWindows(cameras.row0, cameras.col0, cameras.runs)
     disc = visit_windows(pose.x_m, pose.y_m)
-    return SensorWindows(disc.row0, disc.col0, disc.visited[:, :, None])
+    return SensorWindows(disc.row0, disc.col0, runs_of(disc.visited[:, :, None]))
 
 
 class TeamSensing:
@@ -132,7 +133,8 @@ class TeamSensing:
             belief.predict(stepped)
         windows = sensor_windows(self.sensor, pose)
         rngs = [rng for e in envs.tolist() for rng in self.rngs[e]]
-        index, wrong = camera.report_flips(windows.seen[envs], rngs, self.pixel_error)
+        runs = WindowRuns(*(bound[envs] for bound in windows.runs))
+        index, wrong = camera.report_flips(runs, rngs, self.pixel_error)
         k, aircraft, _, i, j = index
         env = envs[k]
         cell = (windows.row0[env, aircraft] + i) * GRID_SIZE + windows.col0[env, aircraft] + j

@@ -1,0 +1,87 @@
+"""Footprints as runs: per window row, the one stretch of columns a sensor sees.
+
+A sensor's footprint in its square window (the 100 m disc, or a camera's view cut by its
+300 m range and the map) is convex, so each window row holds at most one run of seen
+cells: ``first <= column < stop``. Kept as runs, a batch's footprints cost per row, not
+per cell, and their reports come out as flat lists directly (``run_cells``), in row-major
+window order: the order of a mask's ``np.flatnonzero``, which fixes the order in which an
+aircraft draws its report noise.
+
+:func:`first_true` finds a run's ends exactly: the smallest column at which a monotone
+comparison holds, started from the real-number solution and stepped until the very floats
+of the per-cell rule agree.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+
+
+class WindowRuns(NamedTuple):
+    """Seen columns ``first <= column < stop`` per window row, (..., rows) int64 each."""
+
+    first: np.ndarray
+    stop: np.ndarray
+
+    def mask(self, side: int) -> np.ndarray:
+        """The footprints as (..., rows, side) bool masks."""
+        columns = np.arange(side)
+        return (columns >= self.first[..., None]) & (columns < self.stop[..., None])
+
+    def counts(self) -> np.ndarray:
+        """Seen cells per row, (..., rows) int64."""
+        return self.stop - self.first
+
+
+def runs_of(mask: np.ndarray) -> WindowRuns:
+    """The runs of a (..., rows, side) bool mask whose rows each hold one run (or none)."""
+    mask = np.asarray(mask, dtype=bool)
+    side = mask.shape[-1]
+    count = mask.sum(axis=-1)
+    first = np.where(count > 0, np.argmax(mask, axis=-1), 0)
+    last_plus_one = side - np.argmax(mask[..., ::-1], axis=-1)
+    if np.any((count > 0) & (last_plus_one - first != count)):
+        raise ValueError("a footprint row holds more than one run of seen cells")
+    return WindowRuns(first.astype(np.int64), (first + count).astype(np.int64))
+
+
+def first_true(
+    holds: Callable[[np.ndarray], np.ndarray], guess: np.ndarray, side: int
+) -> np.ndarray:
+    """The smallest column j in [0, side] with ``holds(j)`` (side if none), per entry.
+
+    ``holds`` maps an int64 array of columns in [0, side) to bools and must be monotone in
+    j (false, then true). ``guess`` (float, +/-inf allowed) is the real-number solution;
+    rounding can put the exact answer a cell or so off, and the loop steps there.
+    """
+    j = np.clip(np.ceil(guess), 0, side).astype(np.int64)
+    while True:  # back while the column before holds too
+        back = (j > 0) & holds(np.maximum(j - 1, 0))
+        if not back.any():
+            break
+        j -= back
+    while True:  # forward while this column does not hold yet
+        forward = (j < side) & ~holds(np.minimum(j, side - 1))
+        if not forward.any():
+            return j
+        j += forward
+
+
+def run_cells(runs: WindowRuns) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """Every seen cell of a batch of runs, in C order of the runs' dims, then by column.
+
+    Returns the cells' run indices (a tuple, one array per dim of ``runs.first``: e.g.
+    aircraft, camera, row) and their columns.
+    """
+    count = runs.counts().reshape(-1)
+    total = int(count.sum())
+    run = np.repeat(np.arange(count.size), count)
+    start = np.cumsum(count) - count
+    column = runs.first.reshape(-1)[run] + (np.arange(total) - start[run])
+    return np.unravel_index(run, runs.first.shape), column
+
+
+__all__ = ["WindowRuns", "first_true", "run_cells", "runs_of"]
