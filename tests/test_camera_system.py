@@ -109,6 +109,13 @@ def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str
     # The bag says what it was recorded with, and rebuilds the environment's transitions:
     # the reports drawn again, the filtered belief fused again.
     assert read_custom_data(bag)[SENSOR_KEY] == "camera,0.1"
+    assert_rebuilds_as_the_environment(bag, config, seed)
+    with pytest.raises(LearningError, match="observation approach"):
+        transitions_from_bags([bag], "obs", replace(config, observation="obs", reward="obs"))
+
+
+def assert_rebuilds_as_the_environment(bag: Path, config: EnvConfig, seed: int) -> None:
+    """The bag's belief transitions equal the environment's, images and rewards."""
     config = replace(config, observation="belief", reward="belief")
     sequences = transitions_from_bags([bag], "belief", config)
     actions = np.stack([s.actions for s in sequences], axis=1)
@@ -123,5 +130,37 @@ def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str
     for k, sequence in enumerate(sequences):
         np.testing.assert_array_equal(sequence.images, np.stack(images)[:, k])
         np.testing.assert_array_equal(sequence.rewards, np.array(rewards)[:, k])
-    with pytest.raises(LearningError, match="observation approach"):
-        transitions_from_bags([bag], "obs", replace(config, observation="obs", reward="obs"))
+
+
+def test_lockstep_with_the_wind_filter_equals_evaluate(
+    tmp_path: Path, dds_env: dict[str, str]
+) -> None:
+    from wildfire_ros.bag import WIND_FILTER_KEY, read_custom_data
+
+    # The aggregator and the run monitor step a particle filter of fire models over the wind
+    # and hand its estimate to the belief's process term, as the environment does; the
+    # network reads the resulting probability of burning.
+    policy, seed, n, duration = "belief-camera", 2000004, 2, 12.5
+    bag = tmp_path / "bag"
+    result = subprocess.run(
+        [WILDFIRE, "run", "--policy", policy, "--aircraft", str(n), "--sensor", "camera",
+         "--wind-filter", "--seed", str(seed), "--duration", str(duration), "--fast",
+         "--json", "--record", str(bag), "--log-dir", str(tmp_path / "logs")],
+        env=dds_env, capture_output=True, text=True, timeout=150,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(result.stdout)
+    config = EnvConfig(
+        n_aircraft=n, shapes=("circular",), max_duration_s=duration, sensor="camera",
+        pixel_error=0.1, wind_filter=True,
+    )  # fmt: skip
+    expected = evaluate(make_vec_policy(policy), config, [seed]).episodes[0]
+    without = evaluate(make_vec_policy(policy), replace(config, wind_filter=False), [seed])
+    assert summary["wind_filter"] is True
+    assert summary["score"] == summary["aggregator_score"] == expected.score > 0
+    assert summary["false_alarms"] == expected.false_alarms
+    assert summary["belief_iou"] == expected.belief_iou
+    # The filter changed the belief: the same flight without it fuses otherwise.
+    assert without.episodes[0].belief_iou != expected.belief_iou
+    assert read_custom_data(bag)[WIND_FILTER_KEY] == "true"
+    assert_rebuilds_as_the_environment(bag, config, seed)

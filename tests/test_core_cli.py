@@ -98,7 +98,7 @@ def test_eval_json(tmp_path):
             ["run", "--sensor", "camera", "--comm", "none"],
             "noisy sensing under limited radio links",
         ),
-        (["run", "--sensor", "camera", "--wind-filter"], "--wind-filter"),
+        (["run", "--wind-filter"], "wind filter: expected noisy reports"),
     ],
 )
 def test_bad_input_is_one_line_with_status_2(args, needle):

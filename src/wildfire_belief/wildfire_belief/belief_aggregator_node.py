@@ -92,6 +92,12 @@ PARAMETERS = (
     ),
     ParamSpec("pixel_error", 0.0, "probability that a report flips, below 0.5", 0.0, 0.5),
     ParamSpec(
+        "wind_filter",
+        False,
+        "estimate the wind with a particle filter of fire models for the filtered belief's "
+        "process term (needs pixel_error > 0)",
+    ),
+    ParamSpec(
         "preburn_steps",
         EPISODE_DEFAULTS.preburn_steps,
         "fire steps burnt before the aircraft come (the filtered belief spreads its start)",
@@ -117,10 +123,12 @@ class BeliefAggregatorNode(Node):
         self.seed: int = p["seed"]
         mode = Mode(p["mode"])
         sensor, pixel_error = p["sensor"], p["pixel_error"]
-        check_sensing(sensor, pixel_error)
+        check_sensing(sensor, pixel_error, p["wind_filter"])
         filtered = None
         if noisy(sensor, pixel_error):
-            filtered = FilteredAggregator(p["seed"], p["shape"], pixel_error, p["preburn_steps"])
+            filtered = FilteredAggregator(
+                p["seed"], p["shape"], pixel_error, p["preburn_steps"], p["wind_filter"]
+            )
         self.protocol = protocol = AggregatorProtocol(
             self.n,
             mode,

@@ -8,9 +8,11 @@ that belief for one episode, as the belief aggregator node and the run monitor k
 environment keeps a batch of the same belief (``wildfire_learning.team_sensing``) and calls
 the same rules in the same order, so a lockstep run equals ``wildfire eval`` bit for bit:
 
-1. the clock ticks, and at a fire-step tick the process term moves the belief one step;
+1. the clock ticks, and at a fire-step tick the process term moves the belief one step
+   (with the wind filter, the filter steps first and hands its estimate to the process term);
 2. every report of the tick, of every aircraft and sensor, is applied in one update (exact
-   Bayes sums the reports, then clips once per cell: one call, whatever their order);
+   Bayes sums the reports, then clips once per cell: one call, whatever their order), and
+   the wind filter weighs its particles by them;
 3. :func:`score_rule` against the truth of the tick's fire step.
 
 A report window is a window of the map (the visit window's encoding): ``visited`` is the
@@ -26,6 +28,7 @@ import numpy as np
 from wildfire_belief.aggregator import Window
 from wildfire_belief.belief import TICKS_PER_S
 from wildfire_belief.filtered_belief import LogOddsBelief
+from wildfire_belief.wind_filter import WindFilter, team_wind_filter
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, EPISODE_DEFAULTS, initial_fire
 from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.shapes import Shape, shape_masks
@@ -70,12 +73,18 @@ class FilteredAggregator:
         shape: Shape | str,
         pixel_error: float,
         preburn_steps: int = EPISODE_DEFAULTS.preburn_steps,
+        wind_filter: bool = False,
     ) -> None:
         masks = shape_masks(Shape.parse(str(shape)))
+        ignition = initial_fire(seed, shape).burning[0]
         self.belief = LogOddsBelief(1, pixel_error)
         # The team knows the episode's rules, not its draws: the ignition seed spread over
         # the pre-burn, as the environment starts it.
-        self.belief.reset([0], initial_fire(seed, shape).burning[0], masks.fuel, preburn_steps)
+        self.belief.reset([0], ignition, masks.fuel, preburn_steps)
+        self.wind: WindFilter | None = None
+        """The team's wind filter (``wind_filter``): its estimate drives the process term."""
+        if wind_filter:
+            self.wind = team_wind_filter(seed, pixel_error, ignition, masks.fuel, preburn_steps)
         self.scored = np.zeros((GRID_SIZE, GRID_SIZE), dtype=bool)
         self.score = 0
         self.false_alarms = 0
@@ -110,9 +119,13 @@ class FilteredAggregator:
         before = self.burning
         self.belief.tick()
         if self.ticks % DECISIONS_PER_FIRE_STEP == 0:
+            if self.wind is not None:
+                self.wind.steer(self.belief, 0)
             self.belief.predict()
         cell, value = report_cells(windows)
         self.belief.update(np.zeros(cell.size, np.int64), cell, value)
+        if self.wind is not None:
+            self.wind.observe(cell, value)
         if truth is None:
             return 0
         truth = np.asarray(truth, dtype=bool)

@@ -19,13 +19,16 @@ CAMERA_WINDOW = 2 * CAMERA_WINDOW_HALF + 1
 """Edge of a camera's report window in cells."""
 
 
-def check_sensing(sensor: str, pixel_error: float) -> None:
-    """Refuse an unknown sensor or a pixel error outside [0, 0.5) (ValueError, one line:
-    at 0.5 a report says nothing)."""
+def check_sensing(sensor: str, pixel_error: float, wind_filter: bool = False) -> None:
+    """Refuse an unknown sensor, a pixel error outside [0, 0.5) (ValueError, one line: at
+    0.5 a report says nothing), or a wind filter without noisy reports (its particles are
+    weighted by how likely each report is: a certain report rules every particle out)."""
     if sensor not in SENSORS:
         raise ValueError(f"sensor {sensor!r}: expected one of {', '.join(SENSORS)}")
     if not 0.0 <= pixel_error < 0.5:
         raise ValueError(f"pixel_error {pixel_error}: expected 0 <= p < 0.5")
+    if wind_filter and not pixel_error > 0.0:
+        raise ValueError("wind_filter: expected noisy reports (pixel_error > 0)")
 
 
 def noisy(sensor: str, pixel_error: float) -> bool:

@@ -104,6 +104,7 @@ import numpy as np
 from wildfire_belief.filtered_belief import PIXEL_ERROR, LogOddsBelief
 from wildfire_sim.defaults import EPISODE_DEFAULTS
 from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.seeding import Stream, generator
 
 if TYPE_CHECKING:
     from wildfire_sim.fire import FireParams
@@ -264,10 +265,29 @@ class WindFilter:
         """Weighted mean of the particles' winds, (2,) float64."""
         return self.weights() @ self.particles.wind
 
+    def steer(self, belief: LogOddsBelief, env: int) -> None:
+        """A fire step of the filter, then its estimate into ``belief``'s process term for
+        environment ``env`` (call it before the belief's own ``predict``). The environment
+        and the belief aggregator both step their filters so, in this order."""
+        self.step()
+        belief.set_wind([env], self.wind_estimate())
+
+
+def team_wind_filter(
+    seed: int, p: float, ignition: np.ndarray, fuel_mask: np.ndarray, preburn_steps: int
+) -> WindFilter:
+    """The wind filter of episode ``seed``'s team: ``NUM_PARTICLES`` fire models drawn from
+    the episode's own stream (``Stream.WIND``), started from its ignition seed over the
+    pre-burn. The environment and the belief aggregator start theirs here alike."""
+    particles = WindFilter(NUM_PARTICLES, generator(seed, Stream.WIND), p)
+    particles.reset(ignition, fuel_mask, preburn_steps)
+    return particles
+
 
 __all__ = [
     "NUM_PARTICLES",
     "RESAMPLE_THRESHOLD",
     "WIND_JITTER",
     "WindFilter",
+    "team_wind_filter",
 ]

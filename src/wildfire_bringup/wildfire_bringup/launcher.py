@@ -95,6 +95,8 @@ class RunSpec:
     """The aircraft's sensor (``disc`` or ``camera``)."""
     pixel_error: float = 0.0
     """Probability that a report flips; with the camera or any error, a filtered belief."""
+    wind_filter: bool = False
+    """The filtered belief's process term takes a particle filter's wind estimate."""
 
     @property
     def noisy(self) -> bool:
@@ -180,6 +182,7 @@ def node_commands(
                 {
                     **common,
                     **sensing,
+                    **({"wind_filter": True} if spec.wind_filter else {}),
                     "n_aircraft": spec.n_aircraft,
                     "reports": not spec.limited_links,
                 }
@@ -388,14 +391,17 @@ class Launcher:
                 radio=self.spec.limited_links,
                 sensor=self.spec.sensor,
                 pixel_error=self.spec.pixel_error,
+                wind_filter=self.spec.wind_filter,
             )
             self.executor.add_node(self.monitor)
             if self.spec.record_dir is not None:
-                from wildfire_ros.bag import SENSOR_KEY, BagRecorder
+                from wildfire_ros.bag import SENSOR_KEY, WIND_FILTER_KEY, BagRecorder
 
                 # Lockstep bags log sim time (/clock), so `bag play` replays them at sim pace.
                 # The world of the run travels with its bag (what rebuilding needs to know).
                 sensing = {SENSOR_KEY: sensing_text(self.spec.sensor, self.spec.pixel_error)}
+                if self.spec.wind_filter:
+                    sensing[WIND_FILTER_KEY] = "true"
                 self.recorder = BagRecorder(
                     self.spec.record_dir,
                     discovery_period=0.2,

@@ -92,6 +92,7 @@ class RunMonitorNode(Node):
         sensor: str = "disc",
         pixel_error: float = 0.0,
         preburn_steps: int = EPISODE_DEFAULTS.preburn_steps,
+        wind_filter: bool = False,
     ) -> None:
         super().__init__("wildfire_run")
         self.seed = seed
@@ -118,7 +119,9 @@ class RunMonitorNode(Node):
         self.fire_maps: dict[int, np.ndarray] = {}
         """Fire maps by stamp: the truth the score under noise needs at each tick."""
         if union_score and noisy(sensor, pixel_error):
-            self.union = self.filtered = FilteredAggregator(seed, shape, pixel_error, preburn_steps)
+            self.union = self.filtered = FilteredAggregator(
+                seed, shape, pixel_error, preburn_steps, wind_filter
+            )
         elif union_score:
             self.union = BeliefAggregator(initial_fire(seed, shape).burning[0])
         if union_score:

@@ -213,8 +213,6 @@ def build_spec(args: argparse.Namespace) -> Any:
     config = EnvConfig(
         shapes=(shape.value,), observation="none", **scenario_settings(args)
     ).validate()
-    if config.wind_filter:
-        raise UserError("--wind-filter: the nodes' belief has no wind filter yet (eval only)")
     if not config.comm.ideal and args.realtime:
         raise UserError(f"--comm {config.comm}: limited radio links fly in lockstep only so far")
     scenario = draw_scenario(args.seed, config)
@@ -239,6 +237,7 @@ def build_spec(args: argparse.Namespace) -> Any:
         comm=str(config.comm),
         sensor=config.sensor,
         pixel_error=config.pixel_error,
+        wind_filter=config.wind_filter,
     )
 
 
@@ -287,6 +286,7 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
     filtered = monitor.filtered
     if filtered is not None:
         result |= {"sensor": spec.sensor, "pixel_error": spec.pixel_error}
+        result["wind_filter"] = spec.wind_filter
         result["false_alarms"] = filtered.false_alarms
         result["flipped_fraction"] = filtered.flipped_fraction()
     if spec.limited_links:

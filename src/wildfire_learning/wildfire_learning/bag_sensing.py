@@ -22,22 +22,36 @@ from wildfire_belief import sensors
 from wildfire_belief.filtered_aggregator import FilteredAggregator
 from wildfire_learning.errors import LearningError
 from wildfire_msgs_py.codecs import VisitWindow
-from wildfire_ros.bag import SENSOR_KEY, read_custom_data
+from wildfire_ros.bag import SENSOR_KEY, WIND_FILTER_KEY, read_custom_data
 
 
-def recorded_sensing(bag: Path) -> tuple[str, float]:
-    """The sensor and pixel error a bag was recorded with (the paper's disc if unsaid)."""
-    disc = sensors.sensing_text("disc", 0.0)
-    try:  # bags from before the key, or repaired after a crash: the paper's disc
-        text = read_custom_data(bag).get(SENSOR_KEY, disc)
+class Sensing(NamedTuple):
+    """How a recorded run sensed: its sensor, pixel error and whether a wind filter drove
+    the filtered belief's process term."""
+
+    sensor: str = "disc"
+    pixel_error: float = 0.0
+    wind_filter: bool = False
+
+    @property
+    def noisy(self) -> bool:
+        return sensors.noisy(self.sensor, self.pixel_error)
+
+
+def recorded_sensing(bag: Path) -> Sensing:
+    """How a bag's run sensed (the paper's disc if unsaid)."""
+    try:  # bags from before the keys, or repaired after a crash: the paper's disc
+        custom = read_custom_data(bag)
     except OSError:
-        text = disc
+        custom = {}
+    text = custom.get(SENSOR_KEY, sensors.sensing_text("disc", 0.0))
     try:
-        return sensors.parse_sensing(text)
+        sensor, pixel_error = sensors.parse_sensing(text)
     except ValueError:
         raise LearningError(
             f"bag {bag}: {SENSOR_KEY} {text!r}: expected <disc|camera>,<pixel error>"
         ) from None
+    return Sensing(sensor, pixel_error, custom.get(WIND_FILTER_KEY) == "true")
 
 
 class NoisySensing(NamedTuple):
@@ -49,7 +63,7 @@ class NoisySensing(NamedTuple):
     @classmethod
     def of(
         cls,
-        sensing: tuple[str, float],
+        sensing: Sensing,
         episode: tuple[int, str] | None,
         first_decision: int,
         n: int,
@@ -57,8 +71,8 @@ class NoisySensing(NamedTuple):
         preburn_steps: int,
     ) -> NoisySensing | None:
         """None for the paper's disc; refuses what cannot be rebuilt."""
-        sensor, pixel_error = sensing
-        if not sensors.noisy(sensor, pixel_error):
+        sensor, pixel_error, wind_filter = sensing
+        if not sensing.noisy:
             return None
         if approach != Approach.BELIEF:
             raise LearningError(
@@ -73,7 +87,7 @@ class NoisySensing(NamedTuple):
         seed, shape = episode
         return cls(
             [AircraftSensor(sensor, pixel_error, seed, k) for k in range(n)],
-            FilteredAggregator(seed, shape, pixel_error, preburn_steps),
+            FilteredAggregator(seed, shape, pixel_error, preburn_steps, wind_filter),
         )
 
     def sense(self, pose: AircraftState, burning: np.ndarray) -> int:
@@ -85,4 +99,4 @@ class NoisySensing(NamedTuple):
         return self.team.merge(windows, burning)
 
 
-__all__ = ["NoisySensing", "recorded_sensing"]
+__all__ = ["NoisySensing", "Sensing", "recorded_sensing"]

@@ -28,7 +28,8 @@ Topics used (one episode per bag):
 * Noisy sensing (``metadata.yaml`` ``custom_data`` ``wildfire.sensor``, e.g. ``camera,0.1``,
   written by ``wildfire run --record``): the reports are drawn again, as the agents drew
   them (each aircraft's own seeded stream, from the recorded poses and fire maps), and fused
-  into the filtered belief as the aggregator did; the seed and shape come from the first
+  into the filtered belief as the aggregator did (with its wind filter where
+  ``wildfire.wind_filter`` says so); the seed and shape come from the first
   ``/wildfire/episode`` status. The belief approach only (the observation approach's camera
   images are not built), and the recording must hold the start pose (the draws run from
   decision 1).
@@ -57,10 +58,9 @@ from wildfire_agent.dynamics import (
     apply_action,
 )
 from wildfire_agent.rewards import FireFieldMaps, fire_field_maps, observation_rewards
-from wildfire_belief import sensors
 from wildfire_belief.belief import SharedBelief
 from wildfire_belief.visits import visit_windows, visited_cells
-from wildfire_learning.bag_sensing import NoisySensing, recorded_sensing
+from wildfire_learning.bag_sensing import NoisySensing, Sensing, recorded_sensing
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
@@ -93,8 +93,8 @@ class Recording(NamedTuple):
     actions: np.ndarray | None = None
     """(T0, N) int64 recorded actions of decisions first_decision + 1 .., or None (a bag
     without ``/uavK/action``)."""
-    sensing: tuple[str, float] = ("disc", 0.0)
-    """The aircraft's sensor and pixel error of the run."""
+    sensing: Sensing = Sensing()
+    """The aircraft's sensor and pixel error of the run, and its wind filter."""
     episode: tuple[int, str] | None = None
     """Seed and shape of the episode (first ``/wildfire/episode`` status), if recorded."""
 
@@ -181,7 +181,7 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
             "rebuilding its transitions is not supported (record with ideal links)"
         )
     sensing = recorded_sensing(bag)
-    noisy = sensors.noisy(*sensing)
+    noisy = sensing.noisy
     belief_topic = [contract.BELIEF.name] if need_belief and not noisy else []
     required = [contract.FIRE_MAP.name] + belief_topic + ([contract.EPISODE.name] if noisy else [])
     missing = [t for t in required if t not in topics]

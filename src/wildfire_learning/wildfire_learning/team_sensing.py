@@ -42,7 +42,7 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_belief.filtered_aggregator import score_rule
 from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_belief.visits import visit_windows
-from wildfire_belief.wind_filter import NUM_PARTICLES, WindFilter
+from wildfire_belief.wind_filter import WindFilter, team_wind_filter
 from wildfire_belief.window_runs import WindowRuns, runs_of
 from wildfire_msgs_py.codecs import published_probability
 from wildfire_sim.grid import GRID_SIZE
@@ -109,10 +109,9 @@ class TeamSensing:
         for i, (e, seed) in enumerate(zip(env_ids.tolist(), seeds.tolist(), strict=True)):
             self.rngs[e] = [generator(seed, Stream.SENSOR, k) for k in range(self.n)]
             if self.wind_filter:
-                rng = generator(seed, Stream.WIND)
-                particles = WindFilter(NUM_PARTICLES, rng, self.pixel_error)
-                particles.reset(ignition[i], fuel[i], self.preburn_steps)
-                self.filters[e] = particles
+                self.filters[e] = team_wind_filter(
+                    seed, self.pixel_error, ignition[i], fuel[i], self.preburn_steps
+                )
 
     def sense(
         self, active: np.ndarray, pose: AircraftState, truth: np.ndarray, fire_stepped: np.ndarray
@@ -127,8 +126,7 @@ class TeamSensing:
         for e in stepped.tolist() if self.wind_filter else ():
             particles = self.filters[e]
             assert particles is not None
-            particles.step()
-            belief.set_wind([e], particles.wind_estimate())
+            particles.steer(belief, e)
         if stepped.size:
             belief.predict(stepped)
         windows = sensor_windows(self.sensor, pose)

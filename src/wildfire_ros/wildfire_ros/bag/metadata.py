@@ -37,6 +37,8 @@ PRESET_KEY = "wildfire.compression_preset"
 TIME_SOURCE_KEY = "wildfire.time_source"
 SENSOR_KEY = "wildfire.sensor"
 """The aircraft's sensor and pixel error of a recorded run, e.g. ``camera,0.1``."""
+WIND_FILTER_KEY = "wildfire.wind_filter"
+"""``true`` when the recorded run's filtered belief took a wind filter's estimate."""
 
 
 @dataclass(frozen=True)
