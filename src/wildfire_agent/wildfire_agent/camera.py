@@ -175,9 +175,9 @@ def camera_windows(
     disc and the map: convex. So in each window row a camera sees one run of columns, whose
     ends follow from the four edge lines and the disc at that row's northing, found exactly
     (``window_runs.first_true``: the same float comparisons as the per-cell rule). The work
-    is per (camera, row), not per cell: 6x faster than masks of the same runs, which were
-    5x faster than projecting every cell on the three camera axes (measured at 64 x 2
-    poses; the same cells are found).
+    is per (camera, row), not per cell: at 64 x 2 poses 3.7 ms against 6.4 ms for masks of
+    the same runs (which were 5x faster than projecting every cell on the three camera
+    axes), and the reports then need no scan of 61 x 61 masks. The same cells are found.
     """
     x_m, y_m = np.asarray(x_m, dtype=np.float64), np.asarray(y_m, dtype=np.float64)
     heading_rad = np.asarray(heading_rad, dtype=np.float64)

@@ -212,15 +212,11 @@ def neighbour_pressure(probability: np.ndarray, kernel: np.ndarray) -> np.ndarra
     r = STENCIL_RADIUS
     padded = np.pad(probability, ((0, 0), (r, r), (r, r)))
     total = np.zeros_like(probability)
-    term = np.empty_like(probability)  # one buffer for the 24 products: no fresh temporaries
     for i in range(2 * r + 1):
         for j in range(2 * r + 1):
             if i == r and j == r:
                 continue
-            np.multiply(
-                kernel[:, i, j, None, None], padded[:, i : i + height, j : j + width], out=term
-            )
-            total += term
+            total += kernel[:, i, j, None, None] * padded[:, i : i + height, j : j + width]
     return total
 
 
