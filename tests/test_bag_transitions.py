@@ -21,7 +21,7 @@ from wildfire_learning.bag_transitions import (
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
-from wildfire_msgs_py import codecs, contract
+from wildfire_msgs_py import belief_codec, codecs, contract
 from wildfire_ros.bag import BagWriter
 from wildfire_ros.runtime import serialize_message as serialize
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
@@ -78,7 +78,7 @@ def record_rollout(
             contract.FIRE_MAP.name, 1, serialize(codecs.fire_grid_to_msg(env.fire.burning[0], 0))
         )
         writer.write(
-            contract.BELIEF.name, 2, serialize(codecs.belief_to_msg(env.belief.burning[0], 0))
+            contract.BELIEF.name, 2, serialize(belief_codec.belief_to_msg(env.belief.burning[0], 0))
         )
         if start_pose:
             for k in range(n):

@@ -31,6 +31,26 @@ pytestmark = [pytest.mark.dds, pytest.mark.timeout(180)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")
 
 
+def fly_with_cameras(
+    tmp_path: Path,
+    env: dict[str, str],
+    policy: str,
+    seed: int,
+    n: int,
+    duration: float,
+    *extra: str,
+) -> dict:
+    """A lockstep camera run recorded to ``tmp_path / "bag"``: its ``--json`` summary."""
+    result = subprocess.run(
+        [WILDFIRE, "run", "--policy", policy, "--aircraft", str(n), "--sensor", "camera",
+         *extra, "--seed", str(seed), "--duration", str(duration), "--fast", "--json",
+         "--record", str(tmp_path / "bag"), "--log-dir", str(tmp_path / "logs")],
+        env=env, capture_output=True, text=True, timeout=150,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    return json.loads(result.stdout)
+
+
 def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str, str]) -> None:
     from wildfire_msgs_py.camera_codec import footprint_outline, outlines_from_msg
     from wildfire_msgs_py.codecs import grid_from_msg, visit_from_msg
@@ -41,14 +61,7 @@ def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str
     # /wildfire/belief (in whole percent): its decisions depend on every report.
     policy, seed, n, duration = "belief-camera", 2000003, 2, 15.0
     bag = tmp_path / "bag"
-    result = subprocess.run(
-        [WILDFIRE, "run", "--policy", policy, "--aircraft", str(n), "--sensor", "camera",
-         "--seed", str(seed), "--duration", str(duration), "--fast", "--json",
-         "--record", str(bag), "--log-dir", str(tmp_path / "logs")],
-        env=dds_env, capture_output=True, text=True, timeout=150,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
-    summary = json.loads(result.stdout)
+    summary = fly_with_cameras(tmp_path, dds_env, policy, seed, n, duration)
     config = EnvConfig(
         n_aircraft=n, shapes=("circular",), max_duration_s=duration, sensor="camera",
         pixel_error=0.1,
@@ -142,14 +155,7 @@ def test_lockstep_with_the_wind_filter_equals_evaluate(
     # network reads the resulting probability of burning.
     policy, seed, n, duration = "belief-camera", 2000004, 2, 12.5
     bag = tmp_path / "bag"
-    result = subprocess.run(
-        [WILDFIRE, "run", "--policy", policy, "--aircraft", str(n), "--sensor", "camera",
-         "--wind-filter", "--seed", str(seed), "--duration", str(duration), "--fast",
-         "--json", "--record", str(bag), "--log-dir", str(tmp_path / "logs")],
-        env=dds_env, capture_output=True, text=True, timeout=150,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
-    summary = json.loads(result.stdout)
+    summary = fly_with_cameras(tmp_path, dds_env, policy, seed, n, duration, "--wind-filter")
     config = EnvConfig(
         n_aircraft=n, shapes=("circular",), max_duration_s=duration, sensor="camera",
         pixel_error=0.1, wind_filter=True,

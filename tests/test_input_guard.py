@@ -10,7 +10,7 @@ import pytest
 
 from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS
 from wildfire_belief.visits import VISIT_WINDOW
-from wildfire_msgs_py import codecs, system_codecs, wire_checks
+from wildfire_msgs_py import belief_codec, codecs, system_codecs, wire_checks
 from wildfire_msgs_py.input_guard import (
     DropReason,
     InputGuard,
@@ -190,14 +190,14 @@ def test_the_belief_grid_keeps_the_believed_side_of_one_half() -> None:
     probability = np.linspace(0.0, 1.0, 10_000).reshape(100, 100)
     probability[0, :3] = (0.5, 0.503, 0.497)  # round to 50 on either side of the threshold
     believed = probability > 0.5
-    msg = codecs.belief_to_msg(believed, TICK, probability=probability)
+    msg = belief_codec.belief_to_msg(believed, TICK, probability=probability)
     stamp, decoded = wire_checks.checked_belief_grid(msg)
     assert stamp == TICK and decoded.dtype == np.float32
-    assert np.array_equal(codecs.believed_burning(decoded), believed)
+    assert np.array_equal(belief_codec.believed_burning(decoded), believed)
     assert np.all(np.abs(decoded - probability) <= 0.01 + 1e-6)
     # What the environment shows a belief network is exactly what an agent decodes.
-    assert np.array_equal(decoded, codecs.published_probability(believed, probability))
-    disc = codecs.belief_to_msg(believed, TICK)
+    assert np.array_equal(decoded, belief_codec.published_probability(believed, probability))
+    disc = belief_codec.belief_to_msg(believed, TICK)
     assert set(np.unique(codecs.grid_from_msg(disc))) == {0, 100}
     odd = codecs.grid_to_msg(np.full((100, 100), 101, dtype=np.int8))
     assert reason_of(wire_checks.checked_belief_grid, odd) is DropReason.OUT_OF_RANGE

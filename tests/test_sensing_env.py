@@ -39,7 +39,8 @@ def test_the_fraction_of_flipped_reports_is_the_pixel_error(sensor: str) -> None
 
 
 def test_belief_images_show_the_published_probability_under_noise() -> None:
-    from wildfire_msgs_py.codecs import belief_probability, belief_to_msg, grid_from_msg
+    from wildfire_msgs_py.belief_codec import belief_probability, belief_to_msg
+    from wildfire_msgs_py.codecs import grid_from_msg
 
     config = EnvConfig(sensor="camera", pixel_error=0.1, observation="belief", reward="belief")
     env, _ = fly(config, [41], 300)

@@ -45,7 +45,8 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.receding_horizon import RecedingHorizonConfig
 from wildfire_belief.radio import CommError, CommModel
-from wildfire_msgs_py.codecs import NodeStatus, VisitWindow, believed_burning
+from wildfire_msgs_py.belief_codec import believed_burning
+from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
 from wildfire_msgs_py.contract import AIRCRAFT_PREFIX, RADIO_STATUS
 from wildfire_msgs_py.input_guard import (
     DropReason,

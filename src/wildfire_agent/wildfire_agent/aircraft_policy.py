@@ -26,7 +26,7 @@ from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
 from wildfire_agent.policy_names import BUILTIN_POLICIES, make_policy
 from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
 from wildfire_agent.rewards import FireFieldMaps, ObservationRewardWeights, fire_field_maps
-from wildfire_msgs_py.codecs import believed_burning
+from wildfire_msgs_py.belief_codec import believed_burning
 
 BUILTIN = BUILTIN_POLICIES
 

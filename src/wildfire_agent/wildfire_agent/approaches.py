@@ -54,7 +54,7 @@ def belief_images(belief: np.ndarray, age_s: np.ndarray, pose: AircraftState) ->
 
     ``belief`` is the team's probability of burning per cell: the believed map itself (bool)
     under the paper's perfect disc; under noisy sensing the filtered belief in the whole
-    percent ``/wildfire/belief`` carries (``codecs.belief_probability``), so an agent's
+    percent ``/wildfire/belief`` carries (``belief_codec.belief_probability``), so an agent's
     network sees exactly what the trained one saw.
     """
     return ego_images(belief, age_s, pose.x_m, pose.y_m, pose.heading_rad)

@@ -40,9 +40,9 @@ from wildfire_belief.aggregator_protocol import (
 from wildfire_belief.filtered_aggregator import FilteredAggregator
 from wildfire_belief.sensors import SENSORS, check_sensing, noisy, report_window, sensors_of
 from wildfire_msgs_py import contract
+from wildfire_msgs_py.belief_codec import belief_to_msg
 from wildfire_msgs_py.codecs import (
     belief_age_to_msg,
-    belief_to_msg,
     diagnostics_to_msg,
     score_to_msg,
 )

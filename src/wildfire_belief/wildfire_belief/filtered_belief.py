@@ -123,7 +123,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wildfire_belief.belief import AGE_CAP_TICKS, TICKS_PER_S
+from wildfire_belief.report_clock import ReportClock, as_ids
 from wildfire_sim.grid import GRID_SIZE
 
 if TYPE_CHECKING:
@@ -145,12 +145,6 @@ STENCIL_RADIUS = 2
 
 def _logit(probability: float) -> float:
     return math.log(probability / (1.0 - probability))
-
-
-def as_ids(env_ids: np.ndarray | list[int] | None, num_envs: int) -> np.ndarray:
-    if env_ids is None:
-        return np.arange(num_envs)
-    return np.atleast_1d(np.asarray(env_ids, dtype=np.int64))
 
 
 def log_survival_kernel(wind: np.ndarray, params: FireParams | None = None) -> np.ndarray:
@@ -218,65 +212,6 @@ def neighbour_pressure(probability: np.ndarray, kernel: np.ndarray) -> np.ndarra
                 continue
             total += kernel[:, i, j, None, None] * padded[:, i : i + height, j : j + width]
     return total
-
-
-class ReportClock:
-    """The belief clock and the tick of each cell's last report (shared by both forms).
-
-    Arrays: ``now`` (E,) int64 current tick; ``last_report`` (E, H, W) int64.
-    """
-
-    def __init__(self, num_envs: int, grid_size: int) -> None:
-        if num_envs < 1:
-            raise ValueError(f"num_envs: expected >= 1, got {num_envs}")
-        self.grid_size = grid_size
-        self.now = np.zeros(num_envs, dtype=np.int64)
-        shape = (num_envs, grid_size, grid_size)
-        self.last_report = np.full(shape, -AGE_CAP_TICKS, dtype=np.int64)
-
-    @property
-    def num_envs(self) -> int:
-        return self.now.shape[0]
-
-    def tick(self, env_ids: np.ndarray | list[int] | None = None) -> None:
-        """Advance the clock of every (or the given) environment by one decision."""
-        if env_ids is None:
-            self.now += 1
-        else:
-            self.now[as_ids(env_ids, self.num_envs)] += 1
-
-    def age_ticks(self) -> np.ndarray:
-        """Deciseconds since each cell was last reported, capped, (E, H, W) int64."""
-        return np.minimum(self.now[:, None, None] - self.last_report, AGE_CAP_TICKS)
-
-    def age_s(self) -> np.ndarray:
-        """Seconds since each cell was last reported, capped at 255, (E, H, W) float32."""
-        return (self.age_ticks() / TICKS_PER_S).astype(np.float32)
-
-    def _reset_clock(self, env_ids: np.ndarray) -> None:
-        self.now[env_ids] = 0
-        self.last_report[env_ids] = -AGE_CAP_TICKS
-
-    def _flat_reports(
-        self, env: np.ndarray, cell: np.ndarray, value: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Validate a batch of reports, stamp their cells, return (flat index, value)."""
-        env = np.asarray(env, dtype=np.int64).reshape(-1)
-        cell = np.asarray(cell, dtype=np.int64).reshape(-1)
-        value = np.asarray(value, dtype=bool).reshape(-1)
-        if not env.size == cell.size == value.size:
-            raise ValueError(
-                f"env, cell and value must have one entry per report, got "
-                f"{env.size}, {cell.size} and {value.size}"
-            )
-        cells = self.grid_size * self.grid_size
-        if env.size and (
-            env.min() < 0 or env.max() >= self.num_envs or cell.min() < 0 or cell.max() >= cells
-        ):
-            raise ValueError("a report names an environment or a cell outside the belief")
-        flat = env * cells + cell
-        self.last_report.reshape(-1)[flat] = self.now[env]
-        return flat, value
 
 
 class LogOddsBelief(ReportClock):
@@ -497,8 +432,6 @@ __all__ = [
     "SPREAD_SCALE",
     "STENCIL_RADIUS",
     "LogOddsBelief",
-    "ReportClock",
-    "as_ids",
     "burn_survival",
     "log_survival_kernel",
     "neighbour_pressure",

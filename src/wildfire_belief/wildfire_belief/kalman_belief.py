@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from wildfire_belief.filtered_belief import IGNITION_PROBABILITY, ReportClock, as_ids
+from wildfire_belief.filtered_belief import IGNITION_PROBABILITY
+from wildfire_belief.report_clock import ReportClock, as_ids
 from wildfire_sim.grid import GRID_SIZE
 
 KALMAN_Q = 0.01

@@ -40,9 +40,9 @@ from wildfire_belief.filtered_aggregator import FilteredAggregator
 from wildfire_belief.sensors import noisy, report_window, sensors_of
 from wildfire_bringup.trajectory import stacked_trajectory
 from wildfire_msgs_py import contract
+from wildfire_msgs_py.belief_codec import believed_burning
 from wildfire_msgs_py.codecs import (
     VisitWindow,
-    believed_burning,
     diagnostics_from_msg,
     fuel_grid_from_msg,
 )

@@ -64,7 +64,7 @@ from wildfire_learning.bag_sensing import NoisySensing, Sensing, recorded_sensin
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
-from wildfire_msgs_py import codecs, contract
+from wildfire_msgs_py import belief_codec, codecs, contract
 from wildfire_msgs_py.errors import WildfireRosError
 from wildfire_msgs_py.system_codecs import episode_from_msg, stamped_state_from_msg
 from wildfire_ros.bag import bag_info, read_messages
@@ -239,7 +239,7 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
                     )
                 fire.append((_stamp_ns(record.message), grid))
             elif record.topic == contract.BELIEF.name and belief is None:
-                belief = codecs.belief_from_msg(record.message)
+                belief = belief_codec.belief_from_msg(record.message)
             elif record.topic == contract.EPISODE.name and episode is None:
                 status = episode_from_msg(record.message).values
                 episode = int(status.get("seed", -1)), status.get("shape", "")
@@ -407,7 +407,7 @@ def rebuild_transitions(
             image = sensor_images(burning[None], pose)[0]
         elif noisy is not None:
             fused = noisy.team
-            shown = codecs.published_probability(fused.burning, fused.probability())
+            shown = belief_codec.published_probability(fused.burning, fused.probability())
             image = belief_images(shown[None], fused.age_s()[None], pose)[0]
         else:
             image = belief_images(belief.burning, belief.age_s(), pose)[0]

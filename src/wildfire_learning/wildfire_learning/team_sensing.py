@@ -44,7 +44,7 @@ from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_belief.visits import visit_windows
 from wildfire_belief.wind_filter import WindFilter, team_wind_filter
 from wildfire_belief.window_runs import WindowRuns, runs_of
-from wildfire_msgs_py.codecs import published_probability
+from wildfire_msgs_py.belief_codec import published_probability
 from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.seeding import Stream, generator
 

@@ -154,64 +154,6 @@ def fire_grid_from_msg(msg: Any) -> np.ndarray:
     return grid_from_msg(msg) >= FIRE_BURNING // 2
 
 
-BELIEVED_ABOVE = FIRE_BURNING // 2
-"""A shared-belief cell is believed burning when its value is above this (percent)."""
-
-
-def belief_grid(believed: np.ndarray, probability: np.ndarray | None = None) -> np.ndarray:
-    """The shared belief's int8 grid: the probability of burning in percent, rounded, but
-    on the believed side of 50 (``> 50`` is believed burning, exactly, as the team decided
-    on it). Without a probability (the paper's perfect disc): 100 or 0."""
-    believed = np.asarray(believed, dtype=bool)
-    if probability is None:
-        return np.where(believed, FIRE_BURNING, FIRE_NOT_BURNING).astype(np.int8)
-    # In place: fresh map-sized temporaries cost more in page faults than the arithmetic.
-    scaled = np.clip(probability, 0.0, 1.0)
-    scaled *= FIRE_BURNING
-    percent = np.rint(scaled, out=scaled).astype(np.int8)
-    np.maximum(percent, np.int8(BELIEVED_ABOVE + 1), out=percent, where=believed)
-    np.minimum(percent, np.int8(BELIEVED_ABOVE), out=percent, where=~believed)
-    return percent
-
-
-def belief_to_msg(
-    believed: np.ndarray,
-    stamp: Any = 0,
-    *,
-    probability: np.ndarray | None = None,
-    message_class: Any = None,
-) -> Any:
-    """Shared belief -> grid (:func:`belief_grid`)."""
-    grid = belief_grid(believed, probability)
-    return grid_to_msg(grid, stamp, message_class=message_class)
-
-
-def belief_from_msg(msg: Any) -> np.ndarray:
-    """Grid -> bool believed burning (value above 50)."""
-    return grid_from_msg(msg) > BELIEVED_ABOVE
-
-
-def belief_probability(grid: np.ndarray) -> np.ndarray:
-    """The probability of burning of a shared-belief grid (:func:`belief_grid`), float32 in
-    [0, 1]: what a belief network's image shows. Under the disc, 1.0 or 0.0."""
-    probability = np.asarray(grid).astype(np.float32)
-    probability /= np.float32(FIRE_BURNING)
-    return probability
-
-
-def published_probability(believed: np.ndarray, probability: np.ndarray) -> np.ndarray:
-    """A filtered belief's probability of burning as ``/wildfire/belief`` carries it: in whole
-    percent, on the believed side of 50 (``belief_probability(belief_grid(...))``). The
-    environment and the bag rebuild show the belief network this, so a network in a node
-    sees exactly what it was trained on."""
-    return belief_probability(belief_grid(believed, probability))
-
-
-def believed_burning(probability: np.ndarray) -> np.ndarray:
-    """Believed burning: probability above one half (bool in, bool out too)."""
-    return np.asarray(probability) > 0.5
-
-
 def fuel_grid_to_msg(fuel: np.ndarray, stamp: Any = 0, *, message_class: Any = None) -> Any:
     """Integer fuel (0..100, 0..20 in the model) stored directly in each cell."""
     values = np.asarray(fuel)
@@ -470,7 +412,6 @@ def diagnostics_from_msg(msg: Any) -> list[NodeStatus]:
 __all__ = [
     "AGE_MAX_S",
     "AIRSPEED_MPS",
-    "BELIEVED_ABOVE",
     "FIRE_BURNING",
     "FIRE_NOT_BURNING",
     "GRAVITY_MPS2",
@@ -485,11 +426,6 @@ __all__ = [
     "bank_cmd_to_msg",
     "belief_age_from_msg",
     "belief_age_to_msg",
-    "belief_from_msg",
-    "belief_grid",
-    "belief_probability",
-    "belief_to_msg",
-    "believed_burning",
     "clock_from_msg",
     "clock_to_msg",
     "diagnostics_from_msg",
@@ -504,7 +440,6 @@ __all__ = [
     "grid_to_msg",
     "odometry_to_pose",
     "pose_to_odometry",
-    "published_probability",
     "score_from_msg",
     "score_to_msg",
     "seconds_from_msg",

@@ -17,13 +17,13 @@ from typing import Any
 
 import numpy as np
 
+from wildfire_msgs_py.belief_codec import belief_probability
 from wildfire_msgs_py.codecs import (
     FIRE_BURNING,
     FIRE_NOT_BURNING,
     STATE_FIELDS,
     UNKNOWN_CELL,
     VisitWindow,
-    belief_probability,
     float64_from_msg,
     grid_from_msg,
     time_from_msg,
