@@ -16,7 +16,6 @@ import pytest
 
 from wildfire_learning.bag_transitions import transitions_from_bags
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
-from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.replay import ImageCodec
 from wildfire_learning.vec_policies import make_vec_policy
@@ -123,17 +122,19 @@ def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str
     # the reports drawn again, the filtered belief fused again.
     assert read_custom_data(bag)[SENSOR_KEY] == "camera,0.1"
     assert_rebuilds_as_the_environment(bag, config, seed)
-    with pytest.raises(LearningError, match="observation approach"):
-        transitions_from_bags([bag], "obs", replace(config, observation="obs", reward="obs"))
+    # The observation approach's camera images and rewards, from the reports drawn again.
+    assert_rebuilds_as_the_environment(bag, config, seed, "obs")
 
 
-def assert_rebuilds_as_the_environment(bag: Path, config: EnvConfig, seed: int) -> None:
-    """The bag's belief transitions equal the environment's, images and rewards."""
-    config = replace(config, observation="belief", reward="belief")
-    sequences = transitions_from_bags([bag], "belief", config)
+def assert_rebuilds_as_the_environment(
+    bag: Path, config: EnvConfig, seed: int, approach: str = "belief"
+) -> None:
+    """The bag's transitions equal the environment's, images and rewards."""
+    config = replace(config, observation=approach, reward=approach)
+    sequences = transitions_from_bags([bag], approach, config)
     actions = np.stack([s.actions for s in sequences], axis=1)
     env = WildfireVecEnv(config, 1)
-    codec = ImageCodec.for_approach("belief")
+    codec = ImageCodec.for_approach(approach, config.sensor)
     images = [codec.encode(env.reset([seed])["image"][0])]
     rewards = []
     for action in actions:
@@ -170,3 +171,32 @@ def test_lockstep_with_the_wind_filter_equals_evaluate(
     assert without.episodes[0].belief_iou != expected.belief_iou
     assert read_custom_data(bag)[WIND_FILTER_KEY] == "true"
     assert_rebuilds_as_the_environment(bag, config, seed)
+
+
+def test_lockstep_of_the_camera_observation_network_equals_evaluate(
+    tmp_path: Path, dds_env: dict[str, str]
+) -> None:
+    from wildfire_msgs_py.system_codecs import stamped_state_from_msg
+    from wildfire_ros.bag import read_messages
+
+    # Each agent makes its network's four camera images from the reports it just published,
+    # as the environment does: every decision depends on its own noisy pixels.
+    policy, seed, n, duration = "obs-camera", 2000005, 2, 10.0
+    summary = fly_with_cameras(tmp_path, dds_env, policy, seed, n, duration)
+    config = EnvConfig(
+        n_aircraft=n, shapes=("circular",), max_duration_s=duration, sensor="camera",
+        pixel_error=0.1,
+    )  # fmt: skip
+    expected = evaluate(make_vec_policy(policy), config, [seed], record=True).episodes[0]
+    assert summary["score"] == summary["aggregator_score"] == expected.score > 0
+    assert summary["decisions"] == expected.decisions
+    assert summary["false_alarms"] == expected.false_alarms
+    assert summary["belief_iou"] == expected.belief_iou
+    topics = [f"/uav{k}/state_stamped" for k in range(n)]
+    states: dict[str, dict[int, np.ndarray]] = {}
+    for message in read_messages(tmp_path / "bag", topics=topics):
+        stamp, vector = stamped_state_from_msg(message.message)
+        states.setdefault(message.topic, {})[stamp] = vector
+    for k, topic in enumerate(topics):
+        path = np.array([states[topic][t][:2] for t in sorted(states[topic])])
+        np.testing.assert_array_equal(path, expected.trajectory[:, k])

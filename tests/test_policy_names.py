@@ -13,6 +13,7 @@ from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policies import TorchScriptPolicy, greedy_actions
 from wildfire_agent.policy_names import (
     BUILTIN_POLICIES,
+    OBS_CAMERA_POLICY,
     SHIPPED_POLICIES,
     make_policy,
     resolve_policy_path,
@@ -29,7 +30,8 @@ def test_every_name_is_accepted_everywhere(name: str) -> None:
         name = str(resolve_policy_path("obs"))
     factory = make_policy(name)
     assert make_vec_policy(name).observation == factory.observation
-    assert AircraftPolicy(name, 1, 2, seed=3).observation == factory.observation
+    sensor = "camera" if name == OBS_CAMERA_POLICY else "disc"  # the world of its images
+    assert AircraftPolicy(name, 1, 2, seed=3, sensor=sensor).observation == factory.observation
 
 
 def test_unknown_names_fail_in_one_place() -> None:

@@ -84,7 +84,7 @@ def test_an_episode_under_noise_does_not_depend_on_its_batch() -> None:
         ({"sensor": "radar"}, "sensor: expected one of"),
         ({"sensor": "camera", "pixel_error": 0.5}, "pixel error"),
         ({"pixel_error": -0.1}, "pixel error"),
-        ({"sensor": "camera", "observation": "obs"}, "observation approach"),
+        ({"pixel_error": 0.1, "observation": "obs"}, "needs --sensor camera"),
     ],
 )
 def test_bad_sensing_settings_name_what_was_expected(changes: dict, names: str) -> None:

@@ -194,6 +194,9 @@ class AgentProtocol:
         }
         self.window: VisitWindow | None = None
         """The own visit window of the newest visited tick (the radio's, perfect disc)."""
+        self.reports: tuple[VisitWindow, ...] | None = None
+        """The sensor's windows of the newest visited tick (None before the first): what the
+        observation approach's camera images are made from."""
         self.received_tick = -1
 
     @property
@@ -237,7 +240,7 @@ class AgentProtocol:
             heading_rad=np.array([p["start_heading"]]),
             bank_steps=np.array([p["start_bank_steps"]], dtype=np.int64),
         )
-        policy = AircraftPolicy(p["policy"], k, n, p["seed"], planner)
+        policy = AircraftPolicy(p["policy"], k, n, p["seed"], planner, sensor=p["sensor"])
         try:
             comm = CommModel.parse(p["comm"])
         except CommError as error:
@@ -339,8 +342,10 @@ class AgentProtocol:
         if team is None or (self.policy.needs_belief and belief is None):
             return []
         fire_stamp, burning = newest_fire
-        action = self.policy.decide(team, burning, fire_stamp, belief, ages)
-        out: list[Output] = [self.fly(action, tick=0), VisitOut(self.stamp(0), self.visit(burning))]
+        action = self.policy.decide(team, burning, fire_stamp, belief, ages, self.reports)
+        flown = self.fly(action, tick=0)
+        self.reports = self.visit(burning)  # at the new pose: the next decision sees them
+        out: list[Output] = [flown, VisitOut(self.stamp(0), self.reports)]
         self.stats.add(self.clock() - now_s, late)
         out += self.deadline(0)
         self.slot_start = next_slot_start(self.slot_start, self.clock())
@@ -377,6 +382,7 @@ class AgentProtocol:
             if self.visited_tick < tick:
                 windows = self.visit(burning)
                 self.window = windows[0]
+                self.reports = windows
                 out.append(VisitOut(self.stamp(tick), windows))
                 if self.radio is not None:
                     message = self.radio.message(tick, self.state, self.window)
@@ -397,7 +403,7 @@ class AgentProtocol:
                 if belief is None or ages is None:
                     return out
             start = self.clock()
-            action = self.policy.decide(team, burning, fire_stamp, belief, ages)
+            action = self.policy.decide(team, burning, fire_stamp, belief, ages, self.reports)
             out.append(self.fly(action, tick + 1))
             self.stats.add(self.clock() - start, 0.0)
             out += self.deadline(tick + 1)

@@ -16,9 +16,11 @@ for the team arrays, so for the same inputs it picks the action the environment 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
-from wildfire_agent import pairwise
+from wildfire_agent import camera_view, pairwise
 from wildfire_agent.approaches import Approach, belief_images, sensor_images
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
@@ -27,6 +29,7 @@ from wildfire_agent.policy_names import BUILTIN_POLICIES, make_policy
 from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
 from wildfire_agent.rewards import FireFieldMaps, ObservationRewardWeights, fire_field_maps
 from wildfire_msgs_py.belief_codec import believed_burning
+from wildfire_msgs_py.codecs import VisitWindow
 
 BUILTIN = BUILTIN_POLICIES
 
@@ -42,6 +45,7 @@ class AircraftPolicy:
         seed: int,
         rh_config: RecedingHorizonConfig | None = None,
         weights: ObservationRewardWeights | None = None,
+        sensor: str = "disc",
     ) -> None:
         if not 0 <= aircraft < n_aircraft:
             raise AgentConfigError(f"aircraft {aircraft}: expected 0..{n_aircraft - 1}")
@@ -51,6 +55,10 @@ class AircraftPolicy:
         factory = make_policy(policy, rh_config)
         self.observation = factory.observation
         self.policy = factory.build([seed], [aircraft], n_aircraft, self.weights)
+        if factory.network is not None:
+            factory.network.check_sensor(sensor)
+        self.camera_view = sensor == "camera" and self.observation == Approach.OBS
+        """The observation network sees its camera images (``camera_view``)."""
         if isinstance(self.policy, RecedingHorizonPolicy):
             # Load the compiled planner now, before the run (numba and its cached kernels,
             # ~0.6 s), not in the first real-time slot that plans.
@@ -84,6 +92,7 @@ class AircraftPolicy:
         fire_key: object = None,
         belief: np.ndarray | None = None,
         age_s: np.ndarray | None = None,
+        reports: Sequence[VisitWindow] | None = None,
     ) -> int:
         """Action (0: -5 deg, 1: +5 deg) of the ownship from the team poses, fields (n,).
 
@@ -91,7 +100,9 @@ class AircraftPolicy:
         stamp, so the planner's maps are computed once per fire step); ``belief`` (H, W),
         the team's probability of burning (bool under the disc and in radio replicas,
         float32 from ``/wildfire/belief``), and ``age_s`` (H, W) float32 are needed by
-        belief-based networks and ``rh-belief`` only.
+        belief-based networks and ``rh-belief`` only. ``reports``, the camera windows the
+        ownship reported at this pose (None before its first report), make the observation
+        network's images under camera sensing.
         """
         k = self.aircraft
         if isinstance(self.policy, RandomPolicy):
@@ -115,7 +126,9 @@ class AircraftPolicy:
             return int(self.policy.act(own, peers, np.zeros(1, dtype=np.int64), maps)[0])
         network: TorchScriptPolicy = self.policy
         states = pairwise.normalise(pairwise.pairwise_states(team_2d))[0, k : k + 1]
-        if self.observation == Approach.OBS:
+        if self.camera_view:
+            image = self.camera_image(team_2d, reports)
+        elif self.observation == Approach.OBS:
             image = sensor_images(burning[None], team_2d)[0, k : k + 1]
         else:
             if belief is None or age_s is None:
@@ -123,6 +136,18 @@ class AircraftPolicy:
             ownship = AircraftState(*(field[:, k : k + 1] for field in team_2d))
             image = belief_images(belief[None], age_s[None], ownship)[0]
         return int(network.act(image, states)[0])
+
+    def camera_image(
+        self, team_2d: AircraftState, reports: Sequence[VisitWindow] | None
+    ) -> np.ndarray:
+        """The ownship's camera images (1, 4, 30, 20) from its reports, as the environment
+        makes them (nothing reported yet: all ``NOTHING``)."""
+        k = self.aircraft
+        ownship = AircraftState(*(field[:, k : k + 1] for field in team_2d))
+        if reports is None:
+            return np.zeros((1, *camera_view.IMAGE_SHAPE), dtype=np.float32)
+        codes, row0, col0 = camera_view.window_codes([reports])
+        return camera_view.camera_images(codes[None], row0[None], col0[None], ownship)[0]
 
 
 __all__ = ["BUILTIN", "AircraftPolicy"]

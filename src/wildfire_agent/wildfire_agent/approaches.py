@@ -1,7 +1,9 @@
 """What each learning approach observes and is rewarded with — written once.
 
 * ``obs``: the sensor image of the true fire (``sensor.py``), (1, 30, 40) per aircraft, and
-  the observation-based reward r1 + r2 + r3 + r4 (``rewards.observation_rewards``);
+  the observation-based reward r1 + r2 + r3 + r4 (``rewards.observation_rewards``); under
+  camera sensing its four camera images (4, 30, 20) and the same terms from its reports
+  (``camera_view``);
 * ``belief``: the ego image of the shared belief and its ages (``wildfire_belief``),
   (2, 100, 100) per aircraft, and the team reward (newly seen burning cells, shared by the
   team) minus ``proximity_weight * sum_j exp(-rho_j / c)`` (:func:`belief_rewards`).
@@ -17,7 +19,7 @@ from enum import StrEnum
 
 import numpy as np
 
-from wildfire_agent import sensor
+from wildfire_agent import camera_view, sensor
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.rewards import ObservationRewardWeights, proximity_sum
 from wildfire_belief.ego_image import IMAGE_SIZE, ego_images
@@ -40,7 +42,15 @@ IMAGE_SHAPES: dict[str, tuple[int, int, int]] = {
     Approach.BELIEF: (2, IMAGE_SIZE, IMAGE_SIZE),
 }
 """Image (C, H, W) each approach gives an aircraft: the sensor image, or the ego belief and
-its ages (:func:`sensor_images`, :func:`belief_images`)."""
+its ages (:func:`sensor_images`, :func:`belief_images`), under the paper's disc."""
+
+
+def image_shape(approach: str, sensor_name: str = "disc") -> tuple[int, int, int]:
+    """Image (C, H, W) of ``approach`` in a world sensed by ``sensor_name``: the observation
+    approach sees its camera images under ``camera`` (``camera_view.IMAGE_SHAPE``)."""
+    if approach == Approach.OBS and sensor_name == "camera":
+        return camera_view.IMAGE_SHAPE
+    return IMAGE_SHAPES[approach]
 
 
 def sensor_images(truth: np.ndarray, pose: AircraftState) -> np.ndarray:
@@ -77,5 +87,6 @@ __all__ = [
     "Approach",
     "belief_images",
     "belief_rewards",
+    "image_shape",
     "sensor_images",
 ]

@@ -22,7 +22,7 @@ import numpy as np
 if TYPE_CHECKING:
     import torch
 
-from wildfire_agent.approaches import APPROACHES
+from wildfire_agent.approaches import APPROACHES, image_shape
 from wildfire_agent.errors import AgentConfigError
 
 POLICY_CARD_FILE = "wildfire_policy.json"
@@ -76,6 +76,18 @@ class TorchScriptPolicy:
         self.module.eval()
         if threads is not None:
             torch.set_num_threads(threads)
+
+    def check_sensor(self, sensor: str) -> None:
+        """Refuse (one line) a world whose images the network does not take: the observation
+        network of the disc world and that of the camera world see different images."""
+        shape = self.card.get("image_shape")
+        expected = image_shape(self.approach, sensor)
+        if shape is not None and tuple(shape) != expected:
+            raise AgentConfigError(
+                f"policy file {self.path}: its network takes {self.approach} images "
+                f"{tuple(shape)}, but under --sensor {sensor} they are {expected} (fly it in "
+                "the world it was trained in)"
+            )
 
     def q_values(self, images: np.ndarray, pair_states: np.ndarray) -> np.ndarray:
         """Summed pairwise Q-values (B, 2) from images (B, C, H, W) and states (B, K, 5)."""

@@ -14,6 +14,8 @@
   ``models/belief_radio_policy.pt``);
 * ``belief-camera`` — the shipped belief network trained under camera sensing
   (``--sensor camera --pixel-error 0.1``: the filtered belief; ``models/belief_camera_policy.pt``);
+* ``obs-camera`` — the shipped observation network of that world: it sees its own four noisy
+  camera images (``camera_view``; ``models/obs_camera_policy.pt``);
 * anything ending in ``.pt`` or naming an existing file — a TorchScript Q-network.
 
 A policy flies a set of aircraft: one for an agent node's aircraft policy, every aircraft of every
@@ -55,12 +57,14 @@ RADIO_POLICY = "belief-radio"
 """The belief network trained under limited radio links."""
 CAMERA_POLICY = "belief-camera"
 """The belief network trained under camera sensing."""
-SHIPPED_POLICIES = (*APPROACHES, RADIO_POLICY, CAMERA_POLICY)
-"""Names of the shipped Q-networks (one per approach, and the belief network trained under
-limited radio links and under camera sensing)."""
+OBS_CAMERA_POLICY = "obs-camera"
+"""The observation network of the camera world (it sees its camera images)."""
+SHIPPED_POLICIES = (*APPROACHES, RADIO_POLICY, CAMERA_POLICY, OBS_CAMERA_POLICY)
+"""Names of the shipped Q-networks (one per approach, the belief network trained under
+limited radio links, and both approaches trained under camera sensing)."""
 EXPECTED_POLICIES = (
-    "rh, rh-paper, rh-belief, random, obs, belief, belief-radio, belief-camera or a "
-    "TorchScript .pt file"
+    "rh, rh-paper, rh-belief, random, obs, belief, belief-radio, belief-camera, obs-camera or "
+    "a TorchScript .pt file"
 )
 """How an error message names what a policy may be."""
 ORACLE_POLICY = "oracle"
@@ -73,7 +77,7 @@ FILELESS_POLICIES = (*BUILTIN_POLICIES, *EVAL_ONLY_POLICIES)
 """Policy names with no policy file (and so no model card) behind them."""
 MODELS_DIR = Path(__file__).resolve().parents[3] / "models"
 """Shipped policies (``obs_policy.pt``, ``belief_policy.pt``, ``belief_radio_policy.pt``,
-``belief_camera_policy.pt``) in the repository."""
+``belief_camera_policy.pt``, ``obs_camera_policy.pt``) in the repository."""
 
 Policy = RecedingHorizonPolicy | RandomPolicy | TorchScriptPolicy
 """A policy flying a set of aircraft (what :meth:`PolicyFactory.build` returns)."""
@@ -175,6 +179,7 @@ __all__ = [
     "EXPECTED_POLICIES",
     "FILELESS_POLICIES",
     "MODELS_DIR",
+    "OBS_CAMERA_POLICY",
     "ORACLE_POLICY",
     "PLANNER_POLICIES",
     "RADIO_POLICY",

@@ -181,9 +181,9 @@ def add_episode_arguments(
         "--policy",
         default="rh",
         help="rh (our receding horizon), rh-paper (the paper's, uncoordinated), rh-belief (rh on "
-        "the believed map), random, obs, belief, belief-radio, belief-camera (shipped models; "
-        "belief-radio trained under limited radio links, belief-camera under camera sensing) "
-        "or a TorchScript .pt",
+        "the believed map), random, obs, belief, belief-radio, belief-camera, obs-camera "
+        "(shipped models; belief-radio trained under limited radio links, belief-camera and "
+        "obs-camera under camera sensing) or a TorchScript .pt",
     )
     parser.add_argument("--aircraft", type=positive_int, default=2, metavar="N")
     parser.add_argument("--shape", default="circular", help="circular, t or arc")

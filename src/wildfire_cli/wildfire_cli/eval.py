@@ -22,7 +22,7 @@ from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.results_report import Scenario
-from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_learning.vec_policies import check_world, make_vec_policy
 from wildfire_sim.shapes import Shape
 
 
@@ -89,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
     config = EnvConfig(
         shapes=(shape.value,), observation=vec_policy.observation, **scenario_settings(args)
     ).validate()
+    check_world(vec_policy, config)
     seeds = list(range(args.seed, args.seed + args.episodes))
     if args.workers > 1 or args.ray is not None:
         job = EvalJob(args.policy, config, tuple(seeds), bool(args.png), str(device))

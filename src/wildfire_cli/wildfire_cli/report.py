@@ -50,11 +50,13 @@ from wildfire_learning.results_report import (
     store,
     table_cells,
 )
-from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_learning.vec_policies import check_world, make_vec_policy
 
 DEFAULT_POLICIES = ("obs", "belief", "rh", "rh-paper", "random")
 NOISY_DEFAULT_POLICIES = ("belief", "belief-camera", "rh", "rh-belief", "rh-paper", "random")
-"""Under noisy sensing: the observation approach's noisy images are not built yet."""
+"""Under noisy sensing: the disc world's observation network sees the truth, so it is left out."""
+CAMERA_DEFAULT_POLICIES = (*NOISY_DEFAULT_POLICIES[:2], "obs-camera", *NOISY_DEFAULT_POLICIES[2:])
+"""Under cameras: the observation network of that world too (it sees its camera images)."""
 SWEEP_FILES = ("comm_sweep.md", "comm_sweep.json", "comm_sweep.png")
 """What ``--comm-sweep`` writes into the report folder."""
 
@@ -73,9 +75,10 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         nargs="+",
         default=None,
         metavar="POLICY",
-        help="rh, rh-paper, rh-belief, random, obs, belief, belief-radio, belief-camera (shipped "
-        f"models) or TorchScript .pt files (default: {' '.join(DEFAULT_POLICIES)}; under noisy "
-        f"sensing {' '.join(NOISY_DEFAULT_POLICIES)})",
+        help="rh, rh-paper, rh-belief, random, obs, belief, belief-radio, belief-camera, "
+        "obs-camera (shipped models) or TorchScript .pt files (default: "
+        f"{' '.join(DEFAULT_POLICIES)}; under cameras {' '.join(CAMERA_DEFAULT_POLICIES)}; under "
+        f"a noisy disc {' '.join(NOISY_DEFAULT_POLICIES)})",
     )
     # The option's name before "policy" became the one word for it, kept for old scripts.
     parser.add_argument("--controllers", nargs="+", dest="policies", help=argparse.SUPPRESS)
@@ -344,10 +347,12 @@ def run(args: argparse.Namespace) -> int:
     if args.max_wind is not None:
         base = replace(base, max_wind=args.max_wind)
     base.validate()
-    defaults = NOISY_DEFAULT_POLICIES if base.noisy else DEFAULT_POLICIES
+    defaults: tuple[str, ...] = DEFAULT_POLICIES
+    if base.noisy:
+        defaults = CAMERA_DEFAULT_POLICIES if base.sensor == "camera" else NOISY_DEFAULT_POLICIES
     policies = check_policies(args.policies or list(defaults))
     for policy in policies:  # a policy this world cannot fly fails now, not mid-report
-        replace(base, observation=make_vec_policy(policy).observation).validate()
+        check_world(make_vec_policy(policy), base)
     out_dir = output_dir(args.out)
     seeds = list(range(args.seed, args.seed + args.episodes))
 

@@ -100,9 +100,11 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.set_defaults(handler=run)
 
 
-def resolve_policy(policy: str) -> str:
-    """``rh``/``rh-paper``/``random`` as is; ``obs``/``belief``/``.pt`` checked and made
-    absolute."""
+def resolve_policy(policy: str, config: Any) -> str:
+    """``rh``/``rh-paper``/``random`` as is; ``obs``/``belief``/``.pt`` checked (against the
+    world of the run's ``EnvConfig``) and made absolute."""
+    from dataclasses import replace
+
     from wildfire_agent.policies import TorchScriptPolicy
     from wildfire_agent.policy_names import (
         BUILTIN_POLICIES,
@@ -123,7 +125,9 @@ def resolve_policy(policy: str) -> str:
     if policy not in SHIPPED_POLICIES and not is_policy_file(policy):
         raise UserError(f"--policy {policy!r}: expected {EXPECTED_POLICIES}")
     path = resolve_policy_path(policy).resolve()
-    TorchScriptPolicy(path)  # a missing or incompatible file fails here, in one line
+    network = TorchScriptPolicy(path)  # a missing or incompatible file fails here, in one line
+    replace(config, observation=network.approach).validate()
+    network.check_sensor(config.sensor)
     return str(path)
 
 
@@ -206,13 +210,13 @@ def build_spec(args: argparse.Namespace) -> Any:
     hosts = check_hosts(args.hosts, args.aircraft)
     netem, partitions = check_faults(args, hosts)
     shape = Shape.parse(args.shape)
-    policy = resolve_policy(args.policy)
     if args.respawn and not args.realtime:
         raise UserError("--respawn: only with --realtime (lockstep runs are exact replays)")
     # The scenario only (no environment flies here): observe nothing.
     config = EnvConfig(
         shapes=(shape.value,), observation="none", **scenario_settings(args)
     ).validate()
+    policy = resolve_policy(args.policy, config)
     if not config.comm.ideal and args.realtime:
         raise UserError(f"--comm {config.comm}: limited radio links fly in lockstep only so far")
     scenario = draw_scenario(args.seed, config)

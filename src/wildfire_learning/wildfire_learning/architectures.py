@@ -20,7 +20,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from wildfire_agent.approaches import IMAGE_SHAPES, Approach
+from wildfire_agent.approaches import IMAGE_SHAPES, Approach, image_shape
 from wildfire_agent.pairwise import STATE_SIZE
 from wildfire_learning.errors import LearningError
 from wildfire_learning.q_network import QNetwork
@@ -45,13 +45,14 @@ class DownsampledQNetwork(nn.Module):
         return self.q(self.pool(images), states)
 
 
-def build_q_network(approach: str, arch: str = "paper") -> nn.Module:
-    """A freshly initialised Q-network for ``approach`` (obs/belief) and ``arch``."""
+def build_q_network(approach: str, arch: str = "paper", sensor: str = "disc") -> nn.Module:
+    """A freshly initialised Q-network for ``approach`` (obs/belief) and ``arch``, taking
+    the approach's images in a world sensed by ``sensor``."""
     if approach not in IMAGE_SHAPES:
         raise LearningError(f"approach: expected obs or belief, got {approach!r}")
     if arch not in ARCHITECTURES:
         raise LearningError(f"arch: expected one of {ARCHITECTURES}, got {arch!r}")
-    shape = IMAGE_SHAPES[approach]
+    shape = image_shape(approach, sensor)
     if arch in POOLING:
         if approach != Approach.BELIEF:
             raise LearningError(f"arch {arch}: only for the belief approach (obs is already fast)")

@@ -74,10 +74,10 @@ class NoisySensing(NamedTuple):
         sensor, pixel_error, wind_filter = sensing
         if not sensing.noisy:
             return None
-        if approach != Approach.BELIEF:
+        if approach == Approach.OBS and sensor != "camera":
             raise LearningError(
-                f"bag: recorded with --sensor {sensor}: the observation approach's noisy "
-                "images are not built yet (rebuild it for the belief approach)"
+                f"bag: recorded with --sensor {sensor} and a pixel error: the observation "
+                "approach sees camera images only under --sensor camera"
             )
         if first_decision != 0 or episode is None:
             raise LearningError(
@@ -90,13 +90,16 @@ class NoisySensing(NamedTuple):
             FilteredAggregator(seed, shape, pixel_error, preburn_steps, wind_filter),
         )
 
-    def sense(self, pose: AircraftState, burning: np.ndarray) -> int:
-        """One decision's reports of every aircraft at ``pose`` (fields (1, N)), fused."""
-        windows: list[VisitWindow] = []
+    def sense(
+        self, pose: AircraftState, burning: np.ndarray
+    ) -> tuple[int, list[tuple[VisitWindow, ...]]]:
+        """One decision's reports of every aircraft at ``pose`` (fields (1, N)), fused: the
+        team reward, and each aircraft's windows (what its agent published)."""
+        reports = []
         for k, sensor in enumerate(self.aircraft):
             own = AircraftState(*(field[0, k : k + 1] for field in pose))
-            windows += sensor.report(own, burning)
-        return self.team.merge(windows, burning)
+            reports.append(sensor.report(own, burning))
+        return self.team.merge([w for own in reports for w in own], burning), reports
 
 
 __all__ = ["NoisySensing", "Sensing", "recorded_sensing"]

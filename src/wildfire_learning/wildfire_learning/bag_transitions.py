@@ -30,9 +30,9 @@ Topics used (one episode per bag):
   them (each aircraft's own seeded stream, from the recorded poses and fire maps), and fused
   into the filtered belief as the aggregator did (with its wind filter where
   ``wildfire.wind_filter`` says so); the seed and shape come from the first
-  ``/wildfire/episode`` status. The belief approach only (the observation approach's camera
-  images are not built), and the recording must hold the start pose (the draws run from
-  decision 1).
+  ``/wildfire/episode`` status. The observation approach's camera images and rewards are
+  made from each aircraft's redrawn reports (``wildfire_agent.camera_view``). The recording
+  must hold the start pose (the draws run from decision 1).
 
 The last transition is terminal when its decision ended a fire step with fire within
 ``border_cells`` of the edge (the environment's rule); otherwise the bag simply ends (Ctrl-C or
@@ -50,6 +50,7 @@ import numpy as np
 
 from wildfire_agent import pairwise
 from wildfire_agent.approaches import Approach, belief_images, belief_rewards, sensor_images
+from wildfire_agent.camera_view import camera_images, camera_rewards, window_codes
 from wildfire_agent.dynamics import (
     BANK_STEP_RAD,
     MAX_BANK_STEPS,
@@ -59,6 +60,7 @@ from wildfire_agent.dynamics import (
 )
 from wildfire_agent.rewards import FireFieldMaps, fire_field_maps, observation_rewards
 from wildfire_belief.belief import SharedBelief
+from wildfire_belief.sensors import CAMERA_WINDOW, NUM_CAMERAS
 from wildfire_belief.visits import visit_windows, visited_cells
 from wildfire_learning.bag_sensing import NoisySensing, Sensing, recorded_sensing
 from wildfire_learning.env import EnvConfig
@@ -335,7 +337,7 @@ def rebuild_transitions(
     recording: Recording, approach: str, config: EnvConfig
 ) -> list[RebuiltSequence]:
     """Per-aircraft transitions of a recording (see the module docstring)."""
-    codec = ImageCodec.for_approach(approach)
+    codec = ImageCodec.for_approach(approach, recording.sensing.sensor)
     states = recording.states
     t0 = recording.first_decision
     # The last usable decision must have its fire map.
@@ -354,6 +356,7 @@ def rebuild_transitions(
         actions = actions_from_banks(states[:-1, :, 3], states[1:, :, 3])
 
     belief = SharedBelief(1)
+    camera_world = approach == Approach.OBS and recording.sensing.sensor == "camera"
     noisy = NoisySensing.of(
         recording.sensing,
         recording.episode,
@@ -383,8 +386,14 @@ def rebuild_transitions(
             bank_steps=bank_steps[i][None],
         )
         team = 0
+        # Each aircraft's camera reports of this decision (none before the first).
+        codes = np.zeros((1, n, NUM_CAMERAS, CAMERA_WINDOW, CAMERA_WINDOW), dtype=np.uint8)
+        origin = np.zeros((2, 1, n), dtype=np.int64)
         if noisy is not None and t >= 1:
-            team = noisy.sense(pose, burning)
+            team, reports = noisy.sense(pose, burning)
+            if camera_world:
+                own_codes, row0, col0 = window_codes(reports)
+                codes, origin = own_codes[None], np.stack([row0, col0])[:, None]
         elif approach == Approach.BELIEF and t >= 1:
             # Decision t moved the aircraft, then visited (the environment's order).
             belief.tick()
@@ -392,7 +401,9 @@ def rebuild_transitions(
             truth = burning[cell // GRID_SIZE, cell % GRID_SIZE]
             team = int(belief.visit(env_idx, cell, truth)[0])
         weights = config.obs_weights
-        if i >= 1 and approach == Approach.OBS:
+        if i >= 1 and camera_world:
+            rewards[i - 1] = camera_rewards(codes, origin[0], origin[1], pose, weights)[0]
+        elif i >= 1 and approach == Approach.OBS:
             if maps is None or maps_index != step:
                 maps, maps_index = fire_field_maps(burning[None], weights), step
             rewards[i - 1] = observation_rewards(maps, pose.x_m, pose.y_m, pose.bank_rad, weights)[
@@ -403,7 +414,9 @@ def rebuild_transitions(
             rewards[i - 1] = belief_rewards(
                 team_reward, pose, weights, config.belief_proximity_weight
             )[0]
-        if approach == Approach.OBS:
+        if camera_world:
+            image = camera_images(codes, origin[0], origin[1], pose)[0]
+        elif approach == Approach.OBS:
             image = sensor_images(burning[None], pose)[0]
         elif noisy is not None:
             fused = noisy.team

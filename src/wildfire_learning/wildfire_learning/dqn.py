@@ -165,9 +165,9 @@ def train(
     device = torch.device(options.device)
     memory_format = torch.channels_last if config.channels_last else torch.contiguous_format
     # torch's stubs omit the memory_format keyword that Module.to accepts.
-    q_network = build_q_network(config.approach, config.arch)
+    q_network = build_q_network(config.approach, config.arch, config.sensor)
     q_network = q_network.to(device, memory_format=memory_format)  # type: ignore[call-overload]
-    target_network = build_q_network(config.approach, config.arch)
+    target_network = build_q_network(config.approach, config.arch, config.sensor)
     target_network = target_network.to(device, memory_format=memory_format)  # type: ignore[call-overload]
     optimizer = torch.optim.Adamax(q_network.parameters(), lr=config.learning_rate)
     replay: ReplayBuffer | None = None

@@ -10,11 +10,14 @@ fire (``wildfire_sim``), dynamics, sensor, rewards (``wildfire_agent``), belief
 Action space
     Per aircraft, ``Discrete(2)``: 0 banks -5 degrees, 1 banks +5 degrees (limit 50 degrees).
 Observation space (``observation="obs"`` or ``"belief"``)
-    ``image``: the sensor image (1, 30, 40) in {0, 1}, or the ego belief image (2, 100, 100)
-    in [0, 1]; ``state``: normalised pairwise states (K, 5), K = max(N - 1, 1).
+    ``image``: the sensor image (1, 30, 40) in {0, 1} (under camera sensing the four camera
+    images (4, 30, 20) in {0, 0.5, 1}: ``wildfire_agent.camera_view``), or the ego belief
+    image (2, 100, 100) in [0, 1]; ``state``: normalised pairwise states (K, 5),
+    K = max(N - 1, 1).
     ``observation="none"`` skips images (for the receding-horizon and random policies).
 Rewards
-    ``reward="obs"``: the observation-based reward r1 + r2 + r3 + r4 of each aircraft.
+    ``reward="obs"``: the observation-based reward r1 + r2 + r3 + r4 of each aircraft (under
+    camera sensing computed from its cameras' reports, never from the truth).
     ``reward="belief"``: the team reward (newly seen burning cells) minus
     ``belief_proximity_weight * sum_j exp(-rho_j / c)``. Either way ``team_reward`` (the
     score increment, docs/model.md, Evaluation) is returned too, and ``scores`` accumulates it.
@@ -55,6 +58,7 @@ from wildfire_agent.approaches import (
     belief_rewards,
     sensor_images,
 )
+from wildfire_agent.camera_view import camera_images, camera_rewards
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.rewards import (
     FireFieldMaps,
@@ -160,13 +164,20 @@ class EnvConfig:
             raise LearningError("wind filter: expected noisy reports (a pixel error > 0)")
         if self.noisy and not self.comm.ideal:
             raise LearningError("sensor: noisy sensing under limited radio links is not built yet")
-        if self.noisy and self.observation == Approach.OBS:
+        if self.noisy and self.sensor != "camera" and self.observation == Approach.OBS:
             raise LearningError(
-                "sensor: the observation approach's noisy images are not built yet (noisy "
-                "sensing takes belief-based and planner policies)"
+                "sensor: the observation approach sees the true fire under the disc; with a "
+                "pixel error it needs --sensor camera (its own camera images)"
             )
         self.fire.validate()
         return self
+
+    @property
+    def camera_view(self) -> bool:
+        """The observation approach sees its camera images and is rewarded from its reports
+        (``wildfire_agent.camera_view``) instead of the true fire. (Evaluation of other
+        policies leaves ``reward`` at its default, unused: it does not turn this on.)"""
+        return self.sensor == "camera" and self.observation == Approach.OBS
 
     @property
     def max_decisions(self) -> int:
@@ -245,6 +256,7 @@ class WildfireVecEnv:
                 n,
                 config.preburn_steps,
                 config.wind_filter,
+                keep_codes=config.camera_view,
             )
 
     # ------------------------------------------------------------------ reset
@@ -320,7 +332,9 @@ class WildfireVecEnv:
         self.scores += team_reward
 
         weights, a = self.config.obs_weights, self.aircraft
-        if self.config.reward == Approach.OBS:
+        if self.config.reward == Approach.OBS and self.config.camera_view:
+            rewards = camera_rewards(*self._camera_reports(), a, weights)
+        elif self.config.reward == Approach.OBS:
             rewards = observation_rewards(self.maps, a.x_m, a.y_m, a.bank_rad, weights)
         else:
             rewards = belief_rewards(team_reward, a, weights, self.config.belief_proximity_weight)
@@ -364,6 +378,11 @@ class WildfireVecEnv:
             self._maps = FireFieldMaps(burning=burning, distance_m=distance, clear_count=None)
         self._maps_stale[:] = False
         return self._maps
+
+    def _camera_reports(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Report codes (E, N, 4, 61, 61) of the last decision and their windows' origin."""
+        assert self.sensing is not None and self.sensing.codes is not None
+        return (self.sensing.codes, *self.sensing.code_origin)
 
     def believed(self) -> np.ndarray:
         """What the team believes burning, (E, H, W) bool: the shared belief, or the filtered
@@ -415,7 +434,9 @@ class WildfireVecEnv:
         kind = self.config.observation
         if kind == "none":
             return {"state": self.pair_states()}
-        if kind == Approach.OBS:
+        if kind == Approach.OBS and self.config.camera_view:
+            images = camera_images(*self._camera_reports(), self.aircraft)
+        elif kind == Approach.OBS:
             images = sensor_images(self.truth, self.aircraft)
         elif self.radio is None:
             images = belief_images(self.belief_probability(), self.belief_age_s(), self.aircraft)

@@ -35,7 +35,7 @@ def new_replay(
 ) -> ReplayBuffer:
     """An empty replay of ``capacity`` transitions, then ``sequences`` stored in it."""
     image_shape, state_shape = replay_shapes(config)
-    codec = ImageCodec.for_approach(config.approach)
+    codec = ImageCodec.for_approach(config.approach, config.sensor)
     replay = ReplayBuffer(capacity, image_shape, state_shape, codec)
     for sequence in sequences:
         replay.add_sequence(

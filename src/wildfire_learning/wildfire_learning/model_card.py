@@ -12,7 +12,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from wildfire_agent.approaches import IMAGE_SHAPES
+from wildfire_agent.approaches import image_shape
 from wildfire_learning.export import sidecar_path
 from wildfire_learning.train_config import RunOptions, TrainConfig, TrainState
 
@@ -44,7 +44,7 @@ def policy_card(
         "approach": config.approach,
         "arch": config.arch,
         "format": "pairwise Q-network: forward(images (B,C,H,W), states (B,K,5)) -> (B,K,2)",
-        "image_shape": list(IMAGE_SHAPES[config.approach]),
+        "image_shape": list(image_shape(config.approach, config.sensor)),
         "actions": ["bank -5 deg", "bank +5 deg"],
         "config": asdict(config),
         "iterations": state.iterations,

@@ -10,16 +10,21 @@ from dataclasses import replace
 import numpy as np
 import torch
 
-from wildfire_agent.policy_names import BUILTIN_POLICIES, CAMERA_POLICY, SHIPPED_POLICIES
+from wildfire_agent.policy_names import (
+    BUILTIN_POLICIES,
+    CAMERA_POLICY,
+    OBS_CAMERA_POLICY,
+    SHIPPED_POLICIES,
+)
 from wildfire_learning.env import EnvConfig, VecPolicy, WildfireVecEnv
 
 INCUMBENT_POLICIES = tuple(
     str(name)
     for name in (*BUILTIN_POLICIES, *SHIPPED_POLICIES)
-    if name not in ("random", CAMERA_POLICY)
+    if name not in ("random", CAMERA_POLICY, OBS_CAMERA_POLICY)
 )
 """The shipped policies whose flights are the oracle's incumbents: ``random`` never wins, and
-the camera-trained network belongs to another world than the paper's disc the oracle plans."""
+the camera-trained networks belong to another world than the paper's disc the oracle plans."""
 
 
 def flight_of(policy: VecPolicy, config: EnvConfig, seed: int) -> np.ndarray:

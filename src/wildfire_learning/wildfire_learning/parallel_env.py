@@ -14,7 +14,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from wildfire_agent.approaches import APPROACHES, IMAGE_SHAPES
+from wildfire_agent.approaches import APPROACHES, image_shape
 from wildfire_agent.pairwise import STATE_SIZE
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 
@@ -35,11 +35,11 @@ class WildfireParallelEnv(ParallelEnv):  # type: ignore[misc]  # pettingzoo is u
         self.possible_agents = [f"uav{k}" for k in range(self.config.n_aircraft)]
         self.agents: list[str] = []
         self._env = WildfireVecEnv(self.config, 1)
-        image_shape = IMAGE_SHAPES[self.config.observation]
+        shape = image_shape(self.config.observation, self.config.sensor)
         pairs = max(self.config.n_aircraft - 1, 1)
         self._observation_space = spaces.Dict(
             {
-                "image": spaces.Box(0.0, 1.0, image_shape, np.float32),
+                "image": spaces.Box(0.0, 1.0, shape, np.float32),
                 "state": spaces.Box(-np.inf, np.inf, (pairs, STATE_SIZE), np.float32),
             }
         )

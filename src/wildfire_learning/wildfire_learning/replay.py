@@ -15,7 +15,8 @@ sampling time, invalid draws are redrawn). The frame ring is a little larger tha
 transition ring because every episode start writes one frame without a transition.
 
 Quantisation: every image channel ``c`` is stored as ``round(value * scale[c])`` and read
-back as ``stored / scale[c]``. The observation image is binary (scale 1, exact). The belief
+back as ``stored / scale[c]``. The observation image is binary (scale 1, exact); under camera
+sensing its four camera images are 0, 0.5 or 1 (scale 2, exact). The belief
 image is (probability of burning, age / 255): the probability in whole percent (scale 100,
 exact: the shared belief is published in whole percent, and is 0 or 1 under the disc); age
 in whole seconds (scale 255), i.e. to within 0.5 s — a deliberate, documented approximation
@@ -35,10 +36,14 @@ import numpy as np
 import torch
 
 from wildfire_agent.approaches import Approach
+from wildfire_agent.camera_view import IMAGE_SCALE
+from wildfire_belief.sensors import NUM_CAMERAS
 from wildfire_learning.errors import LearningError
 
 OBS_SCALES = (1.0,)
 """Quantisation scale of the sensor image (binary)."""
+CAMERA_SCALE = IMAGE_SCALE
+"""Quantisation scale of each camera image: pixels are 0, 0.5 or 1, stored 0, 1, 2 (exact)."""
 BELIEF_SCALES = (100.0, 255.0)
 """Quantisation scales of the belief image: the probability of burning in whole percent (as
 the shared belief carries it; 0 or 100 under the disc), age / 255 -> whole seconds."""
@@ -51,8 +56,13 @@ class ImageCodec:
     scales: tuple[float, ...]
 
     @classmethod
-    def for_approach(cls, approach: str) -> ImageCodec:
-        return cls(OBS_SCALES if approach == Approach.OBS else BELIEF_SCALES)
+    def for_approach(cls, approach: str, sensor: str = "disc") -> ImageCodec:
+        """The codec of ``approach``'s images in a world sensed by ``sensor``."""
+        if approach == Approach.BELIEF:
+            return cls(BELIEF_SCALES)
+        if sensor == "camera":
+            return cls((CAMERA_SCALE,) * NUM_CAMERAS)
+        return cls(OBS_SCALES)
 
     def encode(self, images: np.ndarray) -> np.ndarray:
         """(..., C, H, W) float -> uint8."""

@@ -38,9 +38,11 @@ from typing import NamedTuple
 import numpy as np
 
 from wildfire_agent import camera
+from wildfire_agent.camera_view import BURNING, CLEAR, NOTHING
 from wildfire_agent.dynamics import AircraftState
 from wildfire_belief.filtered_aggregator import score_rule
 from wildfire_belief.filtered_belief import LogOddsBelief
+from wildfire_belief.sensors import NUM_CAMERAS
 from wildfire_belief.visits import visit_windows
 from wildfire_belief.wind_filter import WindFilter, team_wind_filter
 from wildfire_belief.window_runs import WindowRuns, runs_of
@@ -80,6 +82,7 @@ class TeamSensing:
         n: int,
         preburn_steps: int,
         wind_filter: bool = False,
+        keep_codes: bool = False,
     ) -> None:
         self.sensor = sensor
         self.pixel_error = pixel_error
@@ -95,6 +98,17 @@ class TeamSensing:
         self.rngs: list[list[np.random.Generator]] = [[] for _ in range(num_envs)]
         self.wind_filter = wind_filter
         self.filters: list[WindFilter | None] = [None] * num_envs
+        self.codes: np.ndarray | None = None
+        """With ``keep_codes``: each aircraft's reports of the last decision as codes in its
+        sensor windows (``camera_view.report_codes``), (E, N, C, side, side) uint8, for the
+        observation approach; all ``NOTHING`` before an episode's first decision."""
+        self.code_origin = (np.zeros((num_envs, n), np.int64), np.zeros((num_envs, n), np.int64))
+        """(row0, col0) (E, N) of the windows of :attr:`codes`."""
+        if keep_codes:
+            if sensor != "camera":
+                raise ValueError("report codes are kept for camera sensing only")
+            side = camera.CAMERA_WINDOW
+            self.codes = np.zeros((num_envs, n, NUM_CAMERAS, side, side), dtype=np.uint8)
 
     def reset(
         self, env_ids: np.ndarray, seeds: np.ndarray, ignition: np.ndarray, fuel: np.ndarray
@@ -106,6 +120,8 @@ class TeamSensing:
         self.false_alarms[env_ids] = 0
         self.reports[env_ids] = 0
         self.flipped[env_ids] = 0
+        if self.codes is not None:
+            self.codes[env_ids] = NOTHING
         for i, (e, seed) in enumerate(zip(env_ids.tolist(), seeds.tolist(), strict=True)):
             self.rngs[e] = [generator(seed, Stream.SENSOR, k) for k in range(self.n)]
             if self.wind_filter:
@@ -141,6 +157,10 @@ class TeamSensing:
         self.reports += np.bincount(env, minlength=len(active))
         self.flipped += np.bincount(env[wrong], minlength=len(active))
         belief.update(env, cell, value)
+        if self.codes is not None:
+            self.codes[envs] = NOTHING
+            self.codes[(env, *index[1:])] = np.where(value, BURNING, CLEAR)
+            self.code_origin = (windows.row0.copy(), windows.col0.copy())
         if self.wind_filter:
             for e in envs.tolist():
                 particles = self.filters[e]

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from wildfire_agent.approaches import APPROACHES, IMAGE_SHAPES
+from wildfire_agent.approaches import APPROACHES, IMAGE_SHAPES, image_shape
 from wildfire_agent.pairwise import STATE_SIZE
 from wildfire_belief.radio import CommError, CommModel
 from wildfire_learning.architectures import ARCHITECTURES, build_q_network
@@ -291,7 +291,7 @@ class TrainState:
 
 def replay_shapes(config: TrainConfig) -> tuple[tuple[int, int, int], tuple[int, int]]:
     """Shapes of a replay frame: the image (C, H, W) and the pairwise states (K, 5)."""
-    return IMAGE_SHAPES[config.approach], (max(config.n_aircraft - 1, 1), STATE_SIZE)
+    return image_shape(config.approach, config.sensor), (max(config.n_aircraft - 1, 1), STATE_SIZE)
 
 
 def config_from_dict(values: Mapping[str, Any]) -> TrainConfig:

@@ -10,6 +10,7 @@ the same in a batch of 20 episodes, alone, or as its own agent node.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +28,7 @@ from wildfire_agent.policy_names import (
 )
 from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
 from wildfire_agent.rewards import FireFieldMaps
-from wildfire_learning.env import VecPolicy, WildfireVecEnv
+from wildfire_learning.env import EnvConfig, VecPolicy, WildfireVecEnv
 from wildfire_learning.oracle import OracleVecPolicy
 
 
@@ -123,7 +124,7 @@ class QNetworkVecPolicy:
         self.observation = self.policy.approach
 
     def reset(self, env: WildfireVecEnv) -> None:
-        pass
+        self.policy.check_sensor(env.config.sensor)
 
     def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
         images, states = observations["image"], observations["state"]
@@ -164,6 +165,14 @@ class GreedyVecPolicy:
         return actions.reshape(e, n)
 
 
+def check_world(policy: VecPolicy, config: EnvConfig) -> None:
+    """Refuse (one line) a world ``policy`` cannot fly: its observation there, or a network
+    trained on other images."""
+    replace(config, observation=policy.observation).validate()
+    if isinstance(policy, QNetworkVecPolicy):
+        policy.policy.check_sensor(config.sensor)
+
+
 def make_vec_policy(
     policy: str,
     rh_config: RecedingHorizonConfig | None = None,
@@ -189,5 +198,6 @@ __all__ = [
     "RandomVecPolicy",
     "RecedingHorizonVecPolicy",
     "build_for",
+    "check_world",
     "make_vec_policy",
 ]
