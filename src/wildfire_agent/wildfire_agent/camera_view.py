@@ -157,15 +157,14 @@ def camera_images(
 
 def _box_sums(counts: np.ndarray, side: int) -> np.ndarray:
     """Sums of (..., H, W) integer counts over each cell's ``side`` x ``side`` neighbourhood
-    (zero beyond the edges)."""
+    (zero beyond the edges): along the rows, then the columns."""
     half = side // 2
     padded = np.pad(counts, [(0, 0)] * (counts.ndim - 2) + [(half, half), (half, half)])
     height, width = counts.shape[-2:]
-    total = np.zeros(counts.shape, dtype=np.int32)
-    for dr in range(side):
-        for dc in range(side):
-            total += padded[..., dr : dr + height, dc : dc + width]
-    return total
+    rows = sum(padded[..., dr : dr + height, :] for dr in range(1, side))
+    rows = rows + padded[..., :height, :]
+    total = sum(rows[..., :, dc : dc + width] for dc in range(1, side))
+    return np.asarray(total + rows[..., :, :width], dtype=np.int32)
 
 
 def camera_fire_terms(
@@ -185,8 +184,8 @@ def camera_fire_terms(
     cells = np.arange(CAMERA_WINDOW)
     dx = cell_offset_m(np.asarray(col0)[..., None] + cells, np.asarray(pose.x_m)[..., None])
     dy = cell_offset_m(np.asarray(row0)[..., None] + cells, np.asarray(pose.y_m)[..., None])
-    distance = np.hypot(dy[..., :, None], dx[..., None, :])
-    nearest = np.where(fire, distance, np.inf).min(axis=(-2, -1))
+    squared = dy[..., :, None] ** 2 + dx[..., None, :] ** 2
+    nearest = np.sqrt(np.where(fire, squared, np.inf).min(axis=(-2, -1)))
     r1 = -weights.distance * np.minimum(nearest, weights.max_distance_m)
     total = reports.sum(axis=(-2, -1))
     clear = total - burning_reports.sum(axis=(-2, -1))

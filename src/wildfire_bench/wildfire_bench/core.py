@@ -88,6 +88,7 @@ def bench_env(decisions: int = 300, batch_sizes: tuple[int, ...] = (32, 64, 128)
         ("belief", "disc", "decisions_per_s"),
         ("obs", "disc", "decisions_per_s_obs"),
         ("belief", "camera", "decisions_per_s_camera"),
+        ("obs", "camera", "decisions_per_s_obs_camera"),
     )
     for observation, sensor, key in cases:
         rates = {b: _decisions_per_s(observation, b, decisions, sensor) for b in batch_sizes}
@@ -96,6 +97,10 @@ def bench_env(decisions: int = 300, batch_sizes: tuple[int, ...] = (32, 64, 128)
         result[f"{key}_batch_size"] = best
     # The camera world (four cameras, noisy reports, filtered belief) against the disc.
     result["camera_over_disc"] = result["decisions_per_s_camera"] / result["decisions_per_s"]
+    # The observation approach: its own camera images and rewards against the polar image.
+    result["obs_camera_over_obs"] = (
+        result["decisions_per_s_obs_camera"] / result["decisions_per_s_obs"]
+    )
     for sensor in ("disc", "camera"):
         result[f"bytes_per_env_{sensor}"] = env_bytes(sensor, batch_sizes[0])
     return result
