@@ -93,7 +93,7 @@ def test_eval_json(tmp_path):
         (["run", "--comm", "range=300", "--realtime"], "lockstep only"),
         (["eval", "--sensor", "radar"], "--sensor"),
         (["eval", "--sensor", "camera", "--pixel-error", "0.5"], "[0, 0.5)"),
-        (["eval", "--sensor", "camera", "--policy", "obs"], "observation approach"),
+        (["eval", "--sensor", "camera", "--policy", "obs"], "takes obs images"),
         (
             ["run", "--sensor", "camera", "--comm", "none"],
             "noisy sensing under limited radio links",
