@@ -30,6 +30,14 @@ pytestmark = [pytest.mark.dds, pytest.mark.timeout(180)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")
 
 
+def camera_world(n: int, duration: float, wind_filter: bool = False) -> EnvConfig:
+    """The environment a camera run of ``n`` aircraft equals (circular fire, p = 0.1)."""
+    return EnvConfig(
+        n_aircraft=n, shapes=("circular",), max_duration_s=duration, sensor="camera",
+        pixel_error=0.1, wind_filter=wind_filter,
+    )  # fmt: skip
+
+
 def fly_with_cameras(
     tmp_path: Path,
     env: dict[str, str],
@@ -61,10 +69,7 @@ def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str
     policy, seed, n, duration = "belief-camera", 2000003, 2, 15.0
     bag = tmp_path / "bag"
     summary = fly_with_cameras(tmp_path, dds_env, policy, seed, n, duration)
-    config = EnvConfig(
-        n_aircraft=n, shapes=("circular",), max_duration_s=duration, sensor="camera",
-        pixel_error=0.1,
-    )  # fmt: skip
+    config = camera_world(n, duration)
     expected = evaluate(make_vec_policy(policy), config, [seed], record=True).episodes[0]
     assert (summary["sensor"], summary["pixel_error"]) == ("camera", 0.1)
     assert summary["score"] == expected.score > 0
@@ -157,10 +162,7 @@ def test_lockstep_with_the_wind_filter_equals_evaluate(
     policy, seed, n, duration = "belief-camera", 2000004, 2, 12.5
     bag = tmp_path / "bag"
     summary = fly_with_cameras(tmp_path, dds_env, policy, seed, n, duration, "--wind-filter")
-    config = EnvConfig(
-        n_aircraft=n, shapes=("circular",), max_duration_s=duration, sensor="camera",
-        pixel_error=0.1, wind_filter=True,
-    )  # fmt: skip
+    config = camera_world(n, duration, wind_filter=True)
     expected = evaluate(make_vec_policy(policy), config, [seed]).episodes[0]
     without = evaluate(make_vec_policy(policy), replace(config, wind_filter=False), [seed])
     assert summary["wind_filter"] is True
@@ -183,10 +185,7 @@ def test_lockstep_of_the_camera_observation_network_equals_evaluate(
     # as the environment does: every decision depends on its own noisy pixels.
     policy, seed, n, duration = "obs-camera", 2000005, 2, 10.0
     summary = fly_with_cameras(tmp_path, dds_env, policy, seed, n, duration)
-    config = EnvConfig(
-        n_aircraft=n, shapes=("circular",), max_duration_s=duration, sensor="camera",
-        pixel_error=0.1,
-    )  # fmt: skip
+    config = camera_world(n, duration)
     expected = evaluate(make_vec_policy(policy), config, [seed], record=True).episodes[0]
     assert summary["score"] == summary["aggregator_score"] == expected.score > 0
     assert summary["decisions"] == expected.decisions
