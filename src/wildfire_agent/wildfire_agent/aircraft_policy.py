@@ -21,7 +21,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from wildfire_agent import camera_view, pairwise
-from wildfire_agent.approaches import Approach, belief_images, sensor_images
+from wildfire_agent.approaches import Approach, belief_images, sees_cameras, sensor_images
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
@@ -57,7 +57,7 @@ class AircraftPolicy:
         self.policy = factory.build([seed], [aircraft], n_aircraft, self.weights)
         if factory.network is not None:
             factory.network.check_sensor(sensor)
-        self.camera_view = sensor == "camera" and self.observation == Approach.OBS
+        self.camera_view = sees_cameras(self.observation, sensor)
         """The observation network sees its camera images (``camera_view``)."""
         if isinstance(self.policy, RecedingHorizonPolicy):
             # Load the compiled planner now, before the run (numba and its cached kernels,

@@ -45,10 +45,16 @@ IMAGE_SHAPES: dict[str, tuple[int, int, int]] = {
 its ages (:func:`sensor_images`, :func:`belief_images`), under the paper's disc."""
 
 
+def sees_cameras(approach: str, sensor_name: str) -> bool:
+    """The one rule of the camera world's observation approach: it sees its own camera
+    images and is rewarded from its reports (``camera_view``), not from the true fire."""
+    return approach == Approach.OBS and sensor_name == "camera"
+
+
 def image_shape(approach: str, sensor_name: str = "disc") -> tuple[int, int, int]:
     """Image (C, H, W) of ``approach`` in a world sensed by ``sensor_name``: the observation
     approach sees its camera images under ``camera`` (``camera_view.IMAGE_SHAPE``)."""
-    if approach == Approach.OBS and sensor_name == "camera":
+    if sees_cameras(approach, sensor_name):
         return camera_view.IMAGE_SHAPE
     return IMAGE_SHAPES[approach]
 
@@ -88,5 +94,6 @@ __all__ = [
     "belief_images",
     "belief_rewards",
     "image_shape",
+    "sees_cameras",
     "sensor_images",
 ]

@@ -49,7 +49,13 @@ from typing import NamedTuple
 import numpy as np
 
 from wildfire_agent import pairwise
-from wildfire_agent.approaches import Approach, belief_images, belief_rewards, sensor_images
+from wildfire_agent.approaches import (
+    Approach,
+    belief_images,
+    belief_rewards,
+    sees_cameras,
+    sensor_images,
+)
 from wildfire_agent.camera_view import camera_images, camera_rewards, window_codes
 from wildfire_agent.dynamics import (
     BANK_STEP_RAD,
@@ -356,7 +362,7 @@ def rebuild_transitions(
         actions = actions_from_banks(states[:-1, :, 3], states[1:, :, 3])
 
     belief = SharedBelief(1)
-    camera_world = approach == Approach.OBS and recording.sensing.sensor == "camera"
+    camera_world = sees_cameras(approach, recording.sensing.sensor)
     noisy = NoisySensing.of(
         recording.sensing,
         recording.episode,

@@ -56,6 +56,7 @@ from wildfire_agent.approaches import (
     Approach,
     belief_images,
     belief_rewards,
+    sees_cameras,
     sensor_images,
 )
 from wildfire_agent.camera_view import camera_images, camera_rewards
@@ -177,7 +178,7 @@ class EnvConfig:
         """The observation approach sees its camera images and is rewarded from its reports
         (``wildfire_agent.camera_view``) instead of the true fire. (Evaluation of other
         policies leaves ``reward`` at its default, unused: it does not turn this on.)"""
-        return self.sensor == "camera" and self.observation == Approach.OBS
+        return sees_cameras(self.observation, self.sensor)
 
     @property
     def max_decisions(self) -> int:
