@@ -25,6 +25,7 @@ COMMAND_MODULES = (
     "run",
     "eval",
     "train",
+    "ensemble",
     "fire",
     "sensor",
     "bench",

@@ -115,6 +115,11 @@ def load_policy_weights(model: nn.Module, path: Path, approach: str, arch: str) 
         policy = TorchScriptPolicy(path)
     except AgentConfigError as error:
         raise LearningError(f"--init-from {error}") from None
+    if "ensemble" in policy.card:
+        members = len(policy.card["ensemble"].get("members", []))
+        raise LearningError(
+            f"--init-from {path}: an ensemble of {members} networks (start from one of its members)"
+        )
     trained = (policy.card.get("approach"), policy.card.get("arch", "paper"))
     if trained != (approach, arch):
         raise LearningError(
