@@ -3,7 +3,8 @@
 Networks trained apart (another seed, or a fine-tune that moved away from where it started)
 err apart: each over-values some actions in some states, and not the same ones. The mean of
 their Q-values keeps what they agree on and damps what only one believes, so its greedy
-action is right more often than either member's (docs/model.md, Q-network ensembles). The
+action can beat either member's (measured on validation seeds by :func:`validate`;
+docs/model.md, Q-network, *Ensembles*). The
 file stays a plain TorchScript ``forward(images, states) -> q``: agent nodes, ``wildfire
 eval`` and a user's own node load it as they load one network, at the members' cost summed.
 
@@ -54,7 +55,7 @@ class QEnsemble(nn.Module):
         self.members = nn.ModuleList(members)
 
     def forward(self, images: torch.Tensor, states: torch.Tensor) -> torch.Tensor:
-        total = torch.zeros(0)
+        total = torch.zeros(0)  # TorchScript wants the variable typed before the loop
         count = 0
         # Summed in member order, then divided once: one fixed float order for every caller.
         for member in self.members:
