@@ -22,7 +22,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import torch
 from torch import nn
 
@@ -30,6 +29,7 @@ from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import EvaluationSummary
 from wildfire_learning.export import _save_with_card
+from wildfire_learning.model_card import EVALUATION_PROTOCOL
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.summary_stats import standard_error
 from wildfire_learning.train_config import EVAL_SEED_BASE
@@ -163,7 +163,7 @@ def validate(
                 for path, summary in zip(members, theirs, strict=True)
             },
         }
-    first = summaries[0]
+    first = summaries[0].to_json()
     selection = {
         "validation_seeds": [seeds[0], seeds[-1]],
         "n_aircraft": n_aircraft,
@@ -172,14 +172,11 @@ def validate(
     policy = TorchScriptPolicy(out)
     card = dict(policy.card)
     card["evaluation"] = {
-        "protocol": "team belief reward (docs/model.md, Evaluation), greedy network, batched",
+        "protocol": EVALUATION_PROTOCOL,
         "shapes": [shapes[0]],
         "seeds": [seeds[0], seeds[-1]],
         "episodes": episodes,
-        "score_mean": float(first.scores.mean()),
-        "score_sem": standard_error(first.scores),
-        "belief_iou_mean": float(np.mean([e.belief_iou for e in first.episodes])),
-    }
+    } | {key: first[key] for key in ("score_mean", "score_sem", "belief_iou_mean")}
     card["selection"] = selection
     _save_with_card(policy.module, out, card)
     return selection

@@ -16,6 +16,9 @@ from wildfire_agent.approaches import image_shape
 from wildfire_learning.export import sidecar_path
 from wildfire_learning.train_config import RunOptions, TrainConfig, TrainState
 
+EVALUATION_PROTOCOL = "team belief reward (docs/model.md, Evaluation), greedy network, batched"
+"""How a card's ``evaluation`` was scored (training's validation, or an ensemble's)."""
+
 
 def init_summary(path: Path) -> dict[str, Any]:
     """What a fine-tuned run started from: the policy file and its own training figures."""
@@ -56,7 +59,7 @@ def policy_card(
         "offline": options.offline,
         "device": options.device,
         "evaluation": {
-            "protocol": "team belief reward (docs/model.md, Evaluation), greedy network, batched",
+            "protocol": EVALUATION_PROTOCOL,
             "iteration": int(final["iteration"]),
             "shapes": list(config.eval_shapes),
             "seeds": [seeds[0], seeds[-1]],
@@ -77,4 +80,4 @@ def policy_card(
     }
 
 
-__all__ = ["init_summary", "policy_card"]
+__all__ = ["EVALUATION_PROTOCOL", "init_summary", "policy_card"]
