@@ -44,8 +44,11 @@ pip_install --no-deps "${pkgs[@]}"
 # A .venv from before the CLI moved to wildfire_cli: uninstalling the old owner of the script
 # can remove the one just installed.
 [ -x .venv/bin/wildfire ] || pip_install --no-deps --force-reinstall -e src/wildfire_cli
-# Compile the planner's kernels once here (numba caches them beside their source), not in
-# the first few agent nodes that would each pay seconds of compilation at start-up.
+# Compile the planner's and the filtered belief's kernels once here (numba caches them beside
+# their source), not in the first few nodes that would each pay seconds of compilation at
+# start-up.
 .venv/bin/python -c 'from wildfire_agent.planner_compiled import compile_kernels; compile_kernels()'
+.venv/bin/python -c 'from wildfire_belief.belief_kernels import compile_kernels; compile_kernels()'
+.venv/bin/python -c 'from wildfire_msgs_py.percent_kernels import compile_kernels; compile_kernels()'
 echo "$want" > "$stamp"
 echo "setup: done (.venv/bin/wildfire)"

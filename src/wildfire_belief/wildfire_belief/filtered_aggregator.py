@@ -78,6 +78,11 @@ class FilteredAggregator:
         masks = shape_masks(Shape.parse(str(shape)))
         ignition = initial_fire(seed, shape).burning[0]
         self.belief = LogOddsBelief(1, pixel_error)
+        # The published grid's compiled rounding (numba), loaded now, not in the first
+        # real-time tick.
+        from wildfire_msgs_py.percent_kernels import compile_kernels
+
+        compile_kernels()
         # The team knows the episode's rules, not its draws: the ignition seed spread over
         # the pre-burn, as the environment starts it.
         self.belief.reset([0], ignition, masks.fuel, preburn_steps)

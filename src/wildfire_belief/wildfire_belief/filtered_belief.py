@@ -262,6 +262,12 @@ class LogOddsBelief(ReportClock):
         spread_scale: float = SPREAD_SCALE,
     ) -> None:
         super().__init__(num_envs, grid_size)
+        # numba (~0.5 s to import) only where a filtered belief is made, and its kernels
+        # loaded now, not in the first report of a real-time run.
+        from wildfire_belief import belief_kernels
+
+        belief_kernels.compile_kernels()
+        self._apply_reports = belief_kernels.apply_reports
         self.spread_scale = float(spread_scale)
         if not 0.0 <= p < 0.5:
             raise ValueError(f"p: expected 0 <= p < 0.5, got {p}")
@@ -288,6 +294,8 @@ class LogOddsBelief(ReportClock):
         self.spent = np.zeros(shape)
         self.burn_age = np.zeros(shape)
         self.wind = np.zeros((num_envs, 2))
+        self._net = np.zeros(num_envs * grid_size * grid_size, dtype=np.int32)
+        """Scratch of :meth:`update`: per cell, its reports' net count (zero between calls)."""
         self._kernel = np.broadcast_to(
             self.spread_scale * log_survival_kernel(np.zeros(2), self.params), (num_envs, 5, 5)
         ).copy()
@@ -348,19 +356,23 @@ class LogOddsBelief(ReportClock):
             burning value of each report. A cell may appear any number of times: every
             report counts. Every reported cell's age restarts at 0.
         """
-        flat, value = self._flat_reports(env, cell, value)
-        if flat.size == 0:
-            return
-        log_odds = self.log_odds.reshape(-1)
-        # Net reports "burning" minus reports "not burning" per cell (a dense count: cheaper
-        # than sorting the reports). A cell whose reports cancel keeps its log-odds.
-        net = np.bincount(flat, weights=np.where(value, 1.0, -1.0), minlength=log_odds.size)
-        cells = np.flatnonzero(net)
-        net = net[cells]
-        # p = 0: a report is certain, so the majority fixes the cell (2 bounds, then clipped).
-        weight = 2.0 * self.max_log_odds if self.p == 0.0 else self.report_log_odds
-        step = (np.sign(net) if self.p == 0.0 else net) * weight
-        log_odds[cells] = np.clip(log_odds[cells] + step, -self.max_log_odds, self.max_log_odds)
+        env, flat, value = self._checked_reports(env, cell, value)
+        # Net reports "burning" minus "not burning" per cell, applied once per touched cell:
+        # a compiled loop over the reports, not a count over every cell of the batch. A cell
+        # whose reports cancel keeps its log-odds. With p = 0 a report is certain, so the
+        # majority fixes the cell (2 bounds, then clipped).
+        self._apply_reports(
+            self.log_odds.reshape(-1),
+            self.last_report.reshape(-1),
+            self.now,
+            env,
+            flat,
+            value,
+            self.report_log_odds,
+            self.p == 0.0,
+            self.max_log_odds,
+            self._net,
+        )
 
     def predict(self, env_ids: np.ndarray | list[int] | None = None) -> None:
         """One fire step of the process term (call it when the fire steps).

@@ -53,10 +53,10 @@ class ReportClock:
         self.now[env_ids] = 0
         self.last_report[env_ids] = -AGE_CAP_TICKS
 
-    def _flat_reports(
+    def _checked_reports(
         self, env: np.ndarray, cell: np.ndarray, value: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Validate a batch of reports, stamp their cells, return (flat index, value)."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Validate a batch of reports: (environment, flat index into the batch, value)."""
         env = np.asarray(env, dtype=np.int64).reshape(-1)
         cell = np.asarray(cell, dtype=np.int64).reshape(-1)
         value = np.asarray(value, dtype=bool).reshape(-1)
@@ -70,7 +70,13 @@ class ReportClock:
             env.min() < 0 or env.max() >= self.num_envs or cell.min() < 0 or cell.max() >= cells
         ):
             raise ValueError("a report names an environment or a cell outside the belief")
-        flat = env * cells + cell
+        return env, env * cells + cell, value
+
+    def _flat_reports(
+        self, env: np.ndarray, cell: np.ndarray, value: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Validate a batch of reports, stamp their cells, return (flat index, value)."""
+        env, flat, value = self._checked_reports(env, cell, value)
         self.last_report.reshape(-1)[flat] = self.now[env]
         return flat, value
 

@@ -76,12 +76,17 @@ def run_cells(runs: WindowRuns) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
     Returns the cells' run indices (a tuple, one array per dim of ``runs.first``: e.g.
     aircraft, camera, row) and their columns.
     """
-    count = runs.counts().reshape(-1)
-    total = int(count.sum())
-    run = np.repeat(np.arange(count.size), count)
-    start = np.cumsum(count) - count
-    column = runs.first.reshape(-1)[run] + (np.arange(total) - start[run])
-    return np.unravel_index(run, runs.first.shape), column
+    shape = runs.first.shape
+    rows = shape[-1]
+    first = np.ascontiguousarray(runs.first, dtype=np.int64).reshape(-1, rows)
+    stop = np.ascontiguousarray(runs.stop, dtype=np.int64).reshape(-1, rows)
+    # A compiled loop: the cells come out already split into footprint, row and column.
+    # Imported here, not with this module: numba costs ~0.5 s of start-up, which only noisy
+    # sensing needs (its users load it before a run: ``belief_kernels.compile_kernels``).
+    from wildfire_belief import belief_kernels
+
+    lead, row, column = belief_kernels.run_cells(first, stop, np.asarray(shape[:-1], np.int64))
+    return (*lead, row), column
 
 
 __all__ = ["WindowRuns", "first_true", "run_cells", "runs_of"]

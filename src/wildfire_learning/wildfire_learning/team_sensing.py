@@ -168,7 +168,7 @@ class TeamSensing:
                 mine = env == e
                 particles.observe(cell[mine], value[mine])
         after = belief.believed() & active[:, None, None]
-        newly, alarms = score_rule(before, after, truth.astype(bool), self.scored)
+        newly, alarms = score_rule(before, after, np.asarray(truth, dtype=bool), self.scored)
         self.scored |= newly
         self.false_alarms += alarms.sum(axis=(1, 2))
         return newly.sum(axis=(1, 2)).astype(np.int64)
