@@ -6,15 +6,10 @@ cells: ``first <= column < stop``. Kept as runs, a batch's footprints cost per r
 per cell, and their reports come out as flat lists directly (``run_cells``), in row-major
 window order: the order of a mask's ``np.flatnonzero``, which fixes the order in which an
 aircraft draws its report noise.
-
-:func:`first_true` finds a run's ends exactly: the smallest column at which a monotone
-comparison holds, started from the real-number solution and stepped until the very floats
-of the per-cell rule agree.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -48,28 +43,6 @@ def runs_of(mask: np.ndarray) -> WindowRuns:
     return WindowRuns(first.astype(np.int64), (first + count).astype(np.int64))
 
 
-def first_true(
-    holds: Callable[[np.ndarray], np.ndarray], guess: np.ndarray, side: int
-) -> np.ndarray:
-    """The smallest column j in [0, side] with ``holds(j)`` (side if none), per entry.
-
-    ``holds`` maps an int64 array of columns in [0, side) to bools and must be monotone in
-    j (false, then true). ``guess`` (float, +/-inf allowed) is the real-number solution;
-    rounding can put the exact answer a cell or so off, and the loop steps there.
-    """
-    j = np.clip(np.ceil(guess), 0, side).astype(np.int64)
-    while True:  # back while the column before holds too
-        back = (j > 0) & holds(np.maximum(j - 1, 0))
-        if not back.any():
-            break
-        j -= back
-    while True:  # forward while this column does not hold yet
-        forward = (j < side) & ~holds(np.minimum(j, side - 1))
-        if not forward.any():
-            return j
-        j += forward
-
-
 def run_cells(runs: WindowRuns) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
     """Every seen cell of a batch of runs, in C order of the runs' dims, then by column.
 
@@ -89,4 +62,4 @@ def run_cells(runs: WindowRuns) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
     return (*lead, row), column
 
 
-__all__ = ["WindowRuns", "first_true", "run_cells", "runs_of"]
+__all__ = ["WindowRuns", "run_cells", "runs_of"]
