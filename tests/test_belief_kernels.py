@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wildfire_belief.filtered_belief import LogOddsBelief
+from wildfire_belief.filtered_aggregator import score_decision
+from wildfire_belief.filtered_belief import LogOddsBelief, neighbour_pressure
 from wildfire_belief.window_runs import WindowRuns, run_cells
 from wildfire_msgs_py.belief_codec import (
     BELIEVED_ABOVE,
@@ -105,3 +106,35 @@ def test_published_percent_equals_numpy() -> None:
         published_probability(believed, probability), belief_probability(expected)
     )
     assert expected[0, 0, : edges.size].tolist() == [12, 38, 51, 50, 50, 51, 0, 100]
+
+
+def test_score_decision_equals_the_rule_cell_by_cell() -> None:
+    rng = np.random.default_rng(5)
+    before, after, truth = (rng.random((6, 100, 100)) < 0.3 for _ in range(3))
+    scored = rng.random((6, 100, 100)) < 0.2
+    changed = ~before & after
+    newly, alarms = changed & truth & ~scored, changed & ~truth
+    expected_scored = scored | newly
+    scores, false_alarms = score_decision(before, after, truth, scored)
+    np.testing.assert_array_equal(scores, newly.sum(axis=(1, 2)))
+    np.testing.assert_array_equal(false_alarms, alarms.sum(axis=(1, 2)))
+    np.testing.assert_array_equal(scored, expected_scored)
+    assert scores.min() > 0 and false_alarms.min() > 0  # not vacuous
+    # One map: the aggregator's call.
+    one = np.zeros((100, 100), bool)
+    scores, false_alarms = score_decision(before[0], after[0], truth[0], one)
+    assert scores.tolist() == [int((changed[0] & truth[0]).sum())]
+
+
+def test_neighbour_pressure_equals_the_shifted_sum() -> None:
+    """The compiled stencil sum equals the numpy sum of 24 shifted, weighted copies."""
+    rng = np.random.default_rng(2)
+    probability = np.where(rng.random((3, 100, 100)) < 0.2, rng.random((3, 100, 100)), 0.0)
+    kernel = rng.random((3, 5, 5))
+    padded = np.pad(probability, ((0, 0), (2, 2), (2, 2)))
+    expected = np.zeros_like(probability)
+    for i in range(5):
+        for j in range(5):
+            if (i, j) != (2, 2):
+                expected += kernel[:, i, j, None, None] * padded[:, i : i + 100, j : j + 100]
+    np.testing.assert_array_equal(neighbour_pressure(probability, kernel), expected)

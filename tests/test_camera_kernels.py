@@ -1,5 +1,6 @@
-"""The compiled footprint search equals the whole-array numpy search it replaced, run for
-run: the stored camera-world results were flown with that search."""
+"""The camera world's compiled loops equal the numpy they replaced: the footprint search, run
+for run (the stored camera-world results were flown with it), and the environment's reports,
+report for report."""
 
 from __future__ import annotations
 
@@ -9,8 +10,10 @@ import numpy as np
 
 from wildfire_agent import camera
 from wildfire_agent.camera import ALTITUDE_M, RANGE_M, WINDOW_HALF
+from wildfire_agent.camera_view import BURNING, CLEAR, NOTHING
 from wildfire_agent.dynamics import MAX_BANK_STEPS
-from wildfire_belief.sensors import CAMERA_WINDOW
+from wildfire_belief import belief_kernels
+from wildfire_belief.sensors import CAMERA_WINDOW, NUM_CAMERAS
 from wildfire_belief.visits import cell_offset_m, within_radius
 from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
 
@@ -93,3 +96,50 @@ def test_footprint_runs_equal_the_numpy_search() -> None:
     np.testing.assert_array_equal(windows.runs.first, first)
     np.testing.assert_array_equal(windows.runs.stop, stop)
     assert windows.runs.counts().sum() > 1_000_000  # not vacuous: most poses see ~1 000 cells
+
+
+def test_window_reports_equal_the_flips_of_each_aircraft() -> None:
+    """The environment's one-pass reports equal ``report_flips`` (the nodes' path): the same
+    cells, in the same order, with the same uniforms, truth and codes."""
+    rng = np.random.default_rng(9)
+    episodes, aircraft = 3, 2
+    shape = (episodes, aircraft)
+    x, y = rng.uniform(0.0, 1000.0, shape), rng.uniform(0.0, 1000.0, shape)
+    heading = rng.uniform(-np.pi, np.pi, shape)
+    bank = rng.integers(-MAX_BANK_STEPS, MAX_BANK_STEPS + 1, shape)
+    windows = camera.camera_windows(x, y, heading, bank)
+    truth = rng.random((episodes, GRID_SIZE, GRID_SIZE)) < 0.4
+    p = 0.3
+
+    def streams() -> list[np.random.Generator]:
+        return [np.random.default_rng(100 + k) for k in range(episodes * aircraft)]
+
+    index, flips = camera.report_flips(windows.runs, streams(), p)
+    e, n, c, i, j = index
+    cells = (windows.row0[e, n] + i) * GRID_SIZE + windows.col0[e, n] + j
+    values = truth.reshape(episodes, -1)[e, cells] ^ flips
+
+    lead = (episodes * aircraft, NUM_CAMERAS, CAMERA_WINDOW)
+    codes = np.full((*lead, CAMERA_WINDOW), NOTHING, np.uint8)
+    env, cell, value, wrong = belief_kernels.window_reports(
+        windows.runs.first.reshape(lead),
+        windows.runs.stop.reshape(lead),
+        windows.row0.reshape(-1),
+        windows.col0.reshape(-1),
+        np.repeat(np.arange(episodes), aircraft),
+        truth.reshape(-1),
+        camera.report_uniforms(windows.runs, streams()),
+        p,
+        GRID_SIZE,
+        codes,
+        CLEAR,
+        BURNING,
+    )
+    np.testing.assert_array_equal(env, e)
+    np.testing.assert_array_equal(cell, cells)
+    np.testing.assert_array_equal(value, values)
+    np.testing.assert_array_equal(wrong, flips)
+    expected_codes = np.full(codes.shape, NOTHING, np.uint8)
+    expected_codes[(e * aircraft + n, c, i, j)] = np.where(values, BURNING, CLEAR)
+    np.testing.assert_array_equal(codes, expected_codes)
+    assert cell.size > 1000 and 0 < wrong.mean() < 0.5  # not vacuous

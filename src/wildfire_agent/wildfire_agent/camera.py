@@ -303,17 +303,23 @@ def report_flips(
     """
     if not 0.0 <= p <= 1.0:
         raise ValueError(f"p must lie in [0, 1], got {p}")
+    uniforms = report_uniforms(runs, rngs)
+    run, column = run_cells(runs)
+    return (*run, column), uniforms < p
+
+
+def report_uniforms(runs: WindowRuns, rngs: Sequence[np.random.Generator]) -> np.ndarray:
+    """The uniforms of the reports of footprints ``runs`` ((..., C, rows)): aircraft by
+    aircraft (C order of the leading dims, one generator each), each drawing one per seen
+    cell, in the C order of (camera, row, column): the order of
+    ``window_runs.run_cells``. A report flips when its uniform is below p."""
     lead = runs.first.shape[:-2]
     num_aircraft = int(np.prod(lead, dtype=np.int64))
     if len(rngs) != num_aircraft:
         raise ValueError(f"expected {num_aircraft} generators (one per aircraft), got {len(rngs)}")
-    # C order walks aircraft, camera, row, column: each aircraft's cells form one block, in
-    # the order its uniforms are drawn.
-    run, column = run_cells(runs)
     counts = runs.counts().reshape(num_aircraft, -1).sum(axis=1)
     uniforms = [rng.random(int(count)) for rng, count in zip(rngs, counts, strict=True)]
-    flips = np.concatenate(uniforms) < p if uniforms else np.zeros(0, dtype=bool)
-    return (*run, column), flips
+    return np.concatenate(uniforms) if uniforms else np.zeros(0)
 
 
 __all__ = [
@@ -336,5 +342,6 @@ __all__ = [
     "camera_windows",
     "noisy_reports",
     "report_flips",
+    "report_uniforms",
     "window_values",
 ]

@@ -13,7 +13,7 @@ the same rules in the same order, so a lockstep run equals ``wildfire eval`` bit
 2. every report of the tick, of every aircraft and sensor, is applied in one update (exact
    Bayes sums the reports, then clips once per cell: one call, whatever their order), and
    the wind filter weighs its particles by them;
-3. :func:`score_rule` against the truth of the tick's fire step.
+3. :func:`score_decision` against the truth of the tick's fire step.
 
 A report window is a window of the map (the visit window's encoding): ``visited`` is the
 mask of cells the sensor saw, ``burning`` what it reported there.
@@ -34,18 +34,29 @@ from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.shapes import Shape, shape_masks
 
 
-def score_rule(
+def score_decision(
     before: np.ndarray, after: np.ndarray, truth: np.ndarray, scored: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The score under noise, cell by cell (any matching shapes, bool).
+    """The score under noise of one decision, of (E, H, W) or one (H, W) map (bool each).
 
     A cell scores when it is truly burning, was believed not burning before the decision
     and is believed burning after it, and has not scored yet this episode: flicker cannot
     be farmed. A cell that turns believed burning while truly not burning is a false alarm.
-    Returns (scores now, false alarms now); the caller adds the first to ``scored``.
+    Adds the cells that score to ``scored`` (in place; C-contiguous) and returns the scores
+    and the false alarms per episode, (E,) int64 (shape (1,) for one map).
     """
-    changed = ~before & after
-    return changed & truth & ~scored, changed & ~truth
+    from wildfire_belief.belief_kernels import score_cells
+
+    if not scored.flags.c_contiguous:
+        raise ValueError("scored must be C-contiguous (it is updated in place)")
+    episodes = 1 if scored.ndim == 2 else scored.shape[0]
+    scores, alarms = np.zeros(episodes, np.int64), np.zeros(episodes, np.int64)
+
+    def flat(cells: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(cells, dtype=bool).reshape(-1)
+
+    score_cells(flat(before), flat(after), flat(truth), scored.reshape(-1), scores, alarms)
+    return scores, alarms
 
 
 def report_cells(windows: Sequence[Window]) -> tuple[np.ndarray, np.ndarray]:
@@ -136,10 +147,9 @@ class FilteredAggregator:
         truth = np.asarray(truth, dtype=bool)
         self.reports += cell.size
         self.flipped += int(np.count_nonzero(value != truth.reshape(-1)[cell]))
-        newly, alarms = score_rule(before, self.burning, truth, self.scored)
-        self.scored |= newly
-        self.false_alarms += int(alarms.sum())
-        reward = int(newly.sum())
+        scores, alarms = score_decision(before, self.burning, truth, self.scored)
+        self.false_alarms += int(alarms[0])
+        reward = int(scores[0])
         self.score += reward
         return reward
 
@@ -159,4 +169,4 @@ class FilteredAggregator:
         self.score = round(score)
 
 
-__all__ = ["FilteredAggregator", "report_cells", "score_rule"]
+__all__ = ["FilteredAggregator", "report_cells", "score_decision"]

@@ -199,18 +199,18 @@ def neighbour_pressure(probability: np.ndarray, kernel: np.ndarray) -> np.ndarra
     -------
     (E, H, W) float64
         With the log-survival kernel, ``-log(1 - alpha)``, alpha the mean-field ignition
-        probability. The 24 offsets are summed in a fixed order (a loop over the stencil,
-        not over cells), so each environment's result is independent of the batch.
+        probability. The 24 offsets are summed in a fixed order, row-major over the stencil
+        (a compiled loop, ``belief_kernels.stencil_sum``), so each environment's result is
+        independent of the batch.
     """
-    height, width = probability.shape[1:]
-    r = STENCIL_RADIUS
-    padded = np.pad(probability, ((0, 0), (r, r), (r, r)))
-    total = np.zeros_like(probability)
-    for i in range(2 * r + 1):
-        for j in range(2 * r + 1):
-            if i == r and j == r:
-                continue
-            total += kernel[:, i, j, None, None] * padded[:, i : i + height, j : j + width]
+    from wildfire_belief.belief_kernels import stencil_sum
+
+    probability = np.ascontiguousarray(probability, dtype=np.float64)
+    kernel = np.ascontiguousarray(kernel, dtype=np.float64)
+    if kernel.shape[1:] != (2 * STENCIL_RADIUS + 1,) * 2:
+        raise ValueError(f"kernel: expected (E, 5, 5), got {kernel.shape}")
+    total = np.empty_like(probability)
+    stencil_sum(probability, kernel, total)
     return total
 
 

@@ -12,7 +12,7 @@ decision:
    probability p, drawn from the aircraft's own stream (``seeding.Stream.SENSOR``), so an
    aircraft reports the same whatever the batch;
 3. the belief fuses every report of every aircraft (exact Bayes in log-odds);
-4. the score (``wildfire_belief.filtered_aggregator.score_rule``): a cell scores when it is
+4. the score (``wildfire_belief.filtered_aggregator.score_decision``): a cell scores when it is
    truly burning, was believed not burning before the decision and is believed burning
    after it, **at most once per episode** (flicker cannot be farmed). A cell that turns
    believed burning while truly not burning is a false alarm.
@@ -40,7 +40,7 @@ import numpy as np
 from wildfire_agent import camera
 from wildfire_agent.camera_view import BURNING, CLEAR, NOTHING
 from wildfire_agent.dynamics import AircraftState
-from wildfire_belief.filtered_aggregator import score_rule
+from wildfire_belief.filtered_aggregator import score_decision
 from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_belief.sensors import NUM_CAMERAS
 from wildfire_belief.visits import visit_windows
@@ -89,6 +89,11 @@ class TeamSensing:
         self.n = n
         self.preburn_steps = preburn_steps
         self.belief = LogOddsBelief(num_envs, pixel_error)
+        # Compiled (numba, loaded with the belief's kernels): imported where noisy sensing
+        # is made, not by every user of the environment.
+        from wildfire_belief.belief_kernels import window_reports
+
+        self._window_reports = window_reports
         shape = (num_envs, GRID_SIZE, GRID_SIZE)
         self.scored = np.zeros(shape, dtype=bool)
         """Cells that have scored this episode (each scores at most once)."""
@@ -148,18 +153,32 @@ class TeamSensing:
         windows = sensor_windows(self.sensor, pose)
         rngs = [rng for e in envs.tolist() for rng in self.rngs[e]]
         runs = WindowRuns(*(bound[envs] for bound in windows.runs))
-        index, wrong = camera.report_flips(runs, rngs, self.pixel_error)
-        k, aircraft, _, i, j = index
-        env = envs[k]
-        cell = (windows.row0[env, aircraft] + i) * GRID_SIZE + windows.col0[env, aircraft] + j
-        # The truth of the reported cells only (a seen cell is always on the map).
-        value = truth.reshape(len(active), -1)[env, cell].astype(bool) ^ wrong
+        uniforms = camera.report_uniforms(runs, rngs)
+        lead = (envs.size * self.n, *runs.first.shape[2:])  # (aircraft, sensor, row)
+        codes = np.zeros((0, 0, 0, 0), np.uint8)
+        if self.codes is not None:
+            codes = np.full((*lead, self.codes.shape[-1]), NOTHING, np.uint8)
+        # One compiled pass from the runs to the reports (and codes): each seen cell in
+        # run_cells order, its uniform, its truth (a seen cell is always on the map).
+        env, cell, value, wrong = self._window_reports(
+            runs.first.reshape(lead),
+            runs.stop.reshape(lead),
+            windows.row0[envs].reshape(-1),
+            windows.col0[envs].reshape(-1),
+            np.repeat(envs, self.n),
+            np.ascontiguousarray(truth, dtype=bool).reshape(-1),
+            uniforms,
+            self.pixel_error,
+            GRID_SIZE,
+            codes,
+            CLEAR,
+            BURNING,
+        )
         self.reports += np.bincount(env, minlength=len(active))
         self.flipped += np.bincount(env[wrong], minlength=len(active))
         belief.update(env, cell, value)
         if self.codes is not None:
-            self.codes[envs] = NOTHING
-            self.codes[(env, *index[1:])] = np.where(value, BURNING, CLEAR)
+            self.codes[envs] = codes.reshape(self.codes[envs].shape)
             self.code_origin = (windows.row0.copy(), windows.col0.copy())
         if self.wind_filter:
             for e in envs.tolist():
@@ -167,11 +186,11 @@ class TeamSensing:
                 assert particles is not None
                 mine = env == e
                 particles.observe(cell[mine], value[mine])
-        after = belief.believed() & active[:, None, None]
-        newly, alarms = score_rule(before, after, np.asarray(truth, dtype=bool), self.scored)
-        self.scored |= newly
-        self.false_alarms += alarms.sum(axis=(1, 2))
-        return newly.sum(axis=(1, 2)).astype(np.int64)
+        # Only active episodes' beliefs moved (ticks, fire steps and reports are theirs),
+        # so only they can score.
+        scores, alarms = score_decision(before, belief.believed(), truth, self.scored)
+        self.false_alarms += alarms
+        return scores
 
     def probability(self) -> np.ndarray:
         """The filtered belief as the aggregator publishes it, (E, H, W) float32: the
