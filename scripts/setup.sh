@@ -44,11 +44,12 @@ pip_install --no-deps "${pkgs[@]}"
 # A .venv from before the CLI moved to wildfire_cli: uninstalling the old owner of the script
 # can remove the one just installed.
 [ -x .venv/bin/wildfire ] || pip_install --no-deps --force-reinstall -e src/wildfire_cli
-# Compile the planner's and the filtered belief's kernels once here (numba caches them beside
+# Compile the planner's and the camera world's kernels once here (numba caches them beside
 # their source), not in the first few nodes that would each pay seconds of compilation at
 # start-up.
-.venv/bin/python -c 'from wildfire_agent.planner_compiled import compile_kernels; compile_kernels()'
-.venv/bin/python -c 'from wildfire_belief.belief_kernels import compile_kernels; compile_kernels()'
-.venv/bin/python -c 'from wildfire_msgs_py.percent_kernels import compile_kernels; compile_kernels()'
+for kernels in wildfire_agent.planner_compiled wildfire_agent.camera_kernels \
+    wildfire_belief.belief_kernels wildfire_msgs_py.percent_kernels; do
+  .venv/bin/python -c "from $kernels import compile_kernels; compile_kernels()"
+done
 echo "$want" > "$stamp"
 echo "setup: done (.venv/bin/wildfire)"

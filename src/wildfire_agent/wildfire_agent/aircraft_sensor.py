@@ -49,11 +49,13 @@ class AircraftSensor:
         self.noisy = sensors.noisy(sensor, pixel_error)
         self.rng = generator(seed, Stream.SENSOR, k) if self.noisy else None
         if self.noisy:
-            # The reports' compiled loops (numba and its cached kernels), loaded now, before
-            # the run, not in the first real-time decision.
-            from wildfire_belief.belief_kernels import compile_kernels
+            # The reports' and footprints' compiled loops (numba and its cached kernels),
+            # loaded now, before the run, not in the first real-time decision.
+            from wildfire_agent import camera_kernels
+            from wildfire_belief import belief_kernels
 
-            compile_kernels()
+            belief_kernels.compile_kernels()
+            camera_kernels.compile_kernels()
 
     def report(self, state: AircraftState, burning: np.ndarray) -> tuple[VisitWindow, ...]:
         """The windows of one decision at ``state`` (fields (1,)) over the (H, W) truth.
