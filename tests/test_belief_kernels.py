@@ -1,4 +1,5 @@
-"""The filtered belief's compiled loops equal the whole-array numpy rules they replaced.
+"""The belief's faster per-decision code (compiled loops, one-array ages) equals the
+whole-array numpy rules it replaced.
 
 Each reference below is the numpy code that ran before the loops were compiled; the stored
 camera-world results were flown with it, so equality here is what keeps them reproducible.
@@ -9,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from wildfire_belief.belief import AGE_CAP_TICKS, TICKS_PER_S, age_seconds
 from wildfire_belief.filtered_aggregator import score_decision
 from wildfire_belief.filtered_belief import LogOddsBelief, neighbour_pressure
 from wildfire_belief.window_runs import WindowRuns, run_cells
@@ -138,3 +140,15 @@ def test_neighbour_pressure_equals_the_shifted_sum() -> None:
             if (i, j) != (2, 2):
                 expected += kernel[:, i, j, None, None] * padded[:, i : i + 100, j : j + 100]
     np.testing.assert_array_equal(neighbour_pressure(probability, kernel), expected)
+
+
+def test_age_seconds_equals_the_float64_rule_for_every_age() -> None:
+    """Every capped age, from every tick: float32 arithmetic equals the int64 difference
+    divided in float64 and rounded to float32."""
+    last = np.arange(-AGE_CAP_TICKS, 4001)  # never visited (-cap) up to now
+    now = np.array([4000, 2600, 0])[:, None]
+    expected = (np.minimum(now - last, AGE_CAP_TICKS) / TICKS_PER_S).astype(np.float32)
+    got = age_seconds(now, last)
+    assert got.dtype == np.float32 and got.shape == expected.shape
+    np.testing.assert_array_equal(got, expected)
+    assert got.max() == AGE_CAP_TICKS / TICKS_PER_S

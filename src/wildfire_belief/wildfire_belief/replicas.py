@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wildfire_belief.belief import AGE_CAP_TICKS, TICKS_PER_S
+from wildfire_belief.belief import AGE_CAP_TICKS, age_seconds
 from wildfire_sim.grid import GRID_SIZE
 
 KEY_SHIFT = 6
@@ -97,7 +97,7 @@ class BeliefReplicas:
 
     def age_s(self) -> np.ndarray:
         """Seconds since each cell's newest visit, capped at 255, (E, R, H, W) float32."""
-        return (self.age_ticks() / TICKS_PER_S).astype(np.float32)
+        return age_seconds(self.now[:, None, None, None], self.last_visit())
 
 
 __all__ = ["KEY_AIRCRAFT", "KEY_SHIFT", "UNVISITED_KEY", "BeliefReplicas", "visit_key"]

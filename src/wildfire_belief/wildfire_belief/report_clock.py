@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wildfire_belief.belief import AGE_CAP_TICKS, TICKS_PER_S
+from wildfire_belief.belief import AGE_CAP_TICKS, age_seconds
 
 
 def as_ids(env_ids: np.ndarray | list[int] | None, num_envs: int) -> np.ndarray:
@@ -47,7 +47,7 @@ class ReportClock:
 
     def age_s(self) -> np.ndarray:
         """Seconds since each cell was last reported, capped at 255, (E, H, W) float32."""
-        return (self.age_ticks() / TICKS_PER_S).astype(np.float32)
+        return age_seconds(self.now[:, None, None], self.last_report)
 
     def _reset_clock(self, env_ids: np.ndarray) -> None:
         self.now[env_ids] = 0
