@@ -10,15 +10,15 @@ import subprocess
 import sys
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 from wildfire_learning.bag_transitions import transitions_from_bags
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
-from wildfire_learning.evaluate import evaluate
+from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.replay import ImageCodec
-from wildfire_learning.vec_policies import make_vec_policy
 
 
 def time_ns(msg: object) -> int:
@@ -36,6 +36,16 @@ def camera_world(n: int, duration: float, wind_filter: bool = False) -> EnvConfi
         n_aircraft=n, shapes=("circular",), max_duration_s=duration, sensor="camera",
         pixel_error=0.1, wind_filter=wind_filter,
     )  # fmt: skip
+
+
+def fresh_evaluation(policy: str, config: EnvConfig, seed: int, record: bool = False) -> Any:
+    """``evaluate``'s episode of ``seed``, flown in a fresh (spawned) process, as ``wildfire
+    eval --workers 2`` flies it. In this test process, after the other tests here, an
+    evaluation of the obs-camera run below scored 262 in 2 of 7 runs, where the system, the
+    aggregator and every fresh process scored 276; what in the process state changes it is
+    not found yet (README, Testing)."""
+    job = EvalJob(policy, config, (seed,), record=record)
+    return evaluate_jobs([job], workers=2)[0].episodes[0]
 
 
 def fly_with_cameras(
@@ -70,7 +80,7 @@ def test_lockstep_with_cameras_equals_evaluate(tmp_path: Path, dds_env: dict[str
     bag = tmp_path / "bag"
     summary = fly_with_cameras(tmp_path, dds_env, policy, seed, n, duration)
     config = camera_world(n, duration)
-    expected = evaluate(make_vec_policy(policy), config, [seed], record=True).episodes[0]
+    expected = fresh_evaluation(policy, config, seed, record=True)
     assert (summary["sensor"], summary["pixel_error"]) == ("camera", 0.1)
     assert summary["score"] == expected.score > 0
     assert summary["aggregator_score"] == expected.score
@@ -163,14 +173,14 @@ def test_lockstep_with_the_wind_filter_equals_evaluate(
     bag = tmp_path / "bag"
     summary = fly_with_cameras(tmp_path, dds_env, policy, seed, n, duration, "--wind-filter")
     config = camera_world(n, duration, wind_filter=True)
-    expected = evaluate(make_vec_policy(policy), config, [seed]).episodes[0]
-    without = evaluate(make_vec_policy(policy), replace(config, wind_filter=False), [seed])
+    expected = fresh_evaluation(policy, config, seed)
+    without = fresh_evaluation(policy, replace(config, wind_filter=False), seed)
     assert summary["wind_filter"] is True
     assert summary["score"] == summary["aggregator_score"] == expected.score > 0
     assert summary["false_alarms"] == expected.false_alarms
     assert summary["belief_iou"] == expected.belief_iou
     # The filter changed the belief: the same flight without it fuses otherwise.
-    assert without.episodes[0].belief_iou != expected.belief_iou
+    assert without.belief_iou != expected.belief_iou
     assert read_custom_data(bag)[WIND_FILTER_KEY] == "true"
     assert_rebuilds_as_the_environment(bag, config, seed)
 
@@ -186,7 +196,7 @@ def test_lockstep_of_the_camera_observation_network_equals_evaluate(
     policy, seed, n, duration = "obs-camera", 2000005, 2, 10.0
     summary = fly_with_cameras(tmp_path, dds_env, policy, seed, n, duration)
     config = camera_world(n, duration)
-    expected = evaluate(make_vec_policy(policy), config, [seed], record=True).episodes[0]
+    expected = fresh_evaluation(policy, config, seed, record=True)
     assert summary["score"] == summary["aggregator_score"] == expected.score > 0
     assert summary["decisions"] == expected.decisions
     assert summary["false_alarms"] == expected.false_alarms
