@@ -422,11 +422,12 @@ class LogOddsBelief(ReportClock):
             self.spent[ids] = new_spent
             self.burn_age[ids] = new_age
 
-    def probability(self) -> np.ndarray:
-        """Probability of burning per cell, (E, H, W) float64."""
+    def probability(self, out: np.ndarray | None = None) -> np.ndarray:
+        """Probability of burning per cell, (E, H, W) float64 (into ``out`` if given: a
+        caller that uses it at once and asks every decision keeps one buffer)."""
         # 1 / (1 + exp(-L)), in place: a fresh (E, H, W) temporary per operation costs
         # more in page faults than the arithmetic (4x here at 64 episodes), the same floats.
-        probability = np.negative(self.log_odds)
+        probability = np.negative(self.log_odds, out=out)
         np.exp(probability, out=probability)
         probability += 1.0
         return np.reciprocal(probability, out=probability)

@@ -95,6 +95,7 @@ class TeamSensing:
 
         self._window_reports = window_reports
         shape = (num_envs, GRID_SIZE, GRID_SIZE)
+        self._probability = np.zeros(shape)
         self.scored = np.zeros(shape, dtype=bool)
         """Cells that have scored this episode (each scores at most once)."""
         self.false_alarms = np.zeros(num_envs, dtype=np.int64)
@@ -195,7 +196,9 @@ class TeamSensing:
     def probability(self) -> np.ndarray:
         """The filtered belief as the aggregator publishes it, (E, H, W) float32: the
         probability of burning in whole percent, on the believed side of 50."""
-        return published_probability(self.belief.believed(), self.belief.probability())
+        # The float64 probability is rounded at once: one buffer for every decision.
+        probability = self.belief.probability(out=self._probability)
+        return published_probability(self.belief.believed(), probability)
 
     def flipped_fraction(self) -> np.ndarray:
         """Reports that disagreed with the truth, over all reports, per episode."""
