@@ -179,7 +179,7 @@ class TeamSensing:
         self.flipped += np.bincount(env[wrong], minlength=len(active))
         belief.update(env, cell, value)
         if self.codes is not None:
-            self.codes[envs] = codes.reshape(self.codes[envs].shape)
+            self.codes[envs] = codes.reshape(envs.size, *self.codes.shape[1:])
             self.code_origin = (windows.row0.copy(), windows.col0.copy())
         if self.wind_filter:
             for e in envs.tolist():

@@ -13,10 +13,13 @@ from typing import Any
 
 import numpy as np
 
-from wildfire_msgs_py.codecs import FIRE_BURNING, FIRE_NOT_BURNING, grid_from_msg, grid_to_msg
-
-BELIEVED_ABOVE = FIRE_BURNING // 2
-"""A shared-belief cell is believed burning when its value is above this (percent)."""
+from wildfire_msgs_py.codecs import (
+    BELIEVED_ABOVE,
+    FIRE_BURNING,
+    FIRE_NOT_BURNING,
+    grid_from_msg,
+    grid_to_msg,
+)
 
 
 def _flat_inputs(believed: np.ndarray, probability: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

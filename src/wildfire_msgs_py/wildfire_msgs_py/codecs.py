@@ -40,6 +40,8 @@ from wildfire_msgs_py.errors import MessageFieldError
 
 FIRE_BURNING = 100
 FIRE_NOT_BURNING = 0
+BELIEVED_ABOVE = FIRE_BURNING // 2
+"""A shared-belief cell is believed burning when its value is above this (percent)."""
 UNKNOWN_CELL = -1
 AGE_MAX_S = 255.0
 """Cap of the belief age in seconds."""
@@ -412,6 +414,7 @@ def diagnostics_from_msg(msg: Any) -> list[NodeStatus]:
 __all__ = [
     "AGE_MAX_S",
     "AIRSPEED_MPS",
+    "BELIEVED_ABOVE",
     "FIRE_BURNING",
     "FIRE_NOT_BURNING",
     "GRAVITY_MPS2",

@@ -15,8 +15,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from wildfire_msgs_py.belief_codec import BELIEVED_ABOVE
-from wildfire_msgs_py.codecs import FIRE_BURNING
+from wildfire_msgs_py.codecs import BELIEVED_ABOVE, FIRE_BURNING
 
 _inlined = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 _kernel = numba.njit(cache=True, nogil=True, error_model="numpy")
