@@ -264,10 +264,9 @@ class LogOddsBelief(ReportClock):
         super().__init__(num_envs, grid_size)
         # numba (~0.5 s to import) only where a filtered belief is made, and its kernels
         # loaded now, not in the first report of a real-time run.
-        from wildfire_belief import belief_kernels
+        from wildfire_belief.belief_kernels import compile_kernels
 
-        belief_kernels.compile_kernels()
-        self._apply_reports = belief_kernels.apply_reports
+        compile_kernels()
         self.spread_scale = float(spread_scale)
         if not 0.0 <= p < 0.5:
             raise ValueError(f"p: expected 0 <= p < 0.5, got {p}")
@@ -356,12 +355,14 @@ class LogOddsBelief(ReportClock):
             burning value of each report. A cell may appear any number of times: every
             report counts. Every reported cell's age restarts at 0.
         """
+        from wildfire_belief.belief_kernels import apply_reports
+
         env, flat, value = self._checked_reports(env, cell, value)
         # Net reports "burning" minus "not burning" per cell, applied once per touched cell:
         # a compiled loop over the reports, not a count over every cell of the batch. A cell
         # whose reports cancel keeps its log-odds. With p = 0 a report is certain, so the
         # majority fixes the cell (2 bounds, then clipped).
-        self._apply_reports(
+        apply_reports(
             self.log_odds.reshape(-1),
             self.last_report.reshape(-1),
             self.now,

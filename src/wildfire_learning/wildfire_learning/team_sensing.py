@@ -89,11 +89,6 @@ class TeamSensing:
         self.n = n
         self.preburn_steps = preburn_steps
         self.belief = LogOddsBelief(num_envs, pixel_error)
-        # Compiled (numba, loaded with the belief's kernels): imported where noisy sensing
-        # is made, not by every user of the environment.
-        from wildfire_belief.belief_kernels import window_reports
-
-        self._window_reports = window_reports
         shape = (num_envs, GRID_SIZE, GRID_SIZE)
         self._probability = np.zeros(shape)
         self.scored = np.zeros(shape, dtype=bool)
@@ -140,6 +135,10 @@ class TeamSensing:
     ) -> np.ndarray:
         """One decision of the ``active`` episodes (see the module docstring); returns the
         team reward (E,) int64: cells that scored now."""
+        # Compiled (numba, loaded with the belief's kernels): imported here, not by every
+        # user of the environment.
+        from wildfire_belief.belief_kernels import window_reports
+
         envs = np.flatnonzero(active)
         belief = self.belief
         before = belief.believed()
@@ -161,7 +160,7 @@ class TeamSensing:
             codes = np.full((*lead, self.codes.shape[-1]), NOTHING, np.uint8)
         # One compiled pass from the runs to the reports (and codes): each seen cell in
         # run_cells order, its uniform, its truth (a seen cell is always on the map).
-        env, cell, value, wrong = self._window_reports(
+        env, cell, value, wrong = window_reports(
             runs.first.reshape(lead),
             runs.stop.reshape(lead),
             windows.row0[envs].reshape(-1),
