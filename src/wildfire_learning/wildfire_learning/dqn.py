@@ -39,6 +39,10 @@ Decisions beyond the paper (documented here, reported in the card):
   peaks of 2 025 and 1 952), the aircraft bunching on the same stretch of front; held at 0.5
   the same seeds scored 2 003 and 1 853 there (+222 and +218, paired) and plateaued. The
   greedy network is what is evaluated and deployed, so the floor costs nothing there.
+* A privileged teacher (``teacher``, off by default): a receding-horizon planner labels the
+  states the network's own flights reach, and a large-margin loss on those labels is added
+  to the Bellman error, its weight falling to 0 over ``teacher_iterations`` (DAgger's
+  labelling, DQfD's loss; see ``teacher.py``).
 * Episodes abandoned by an interruption are not resumed: a resumed run starts new episodes
   (their transitions up to the checkpoint are in the replay).
 * ``RunOptions.device`` (``--device``) holds the networks, the optimiser and the replay
@@ -73,6 +77,7 @@ from wildfire_learning.export import export_policy
 from wildfire_learning.model_card import init_summary, policy_card
 from wildfire_learning.replay import ReplayBuffer
 from wildfire_learning.scalar_log import ScalarLog
+from wildfire_learning.teacher import TeacherStats, agreement, margin_loss
 from wildfire_learning.train_config import (
     RunOptions,
     TrainConfig,
@@ -107,8 +112,11 @@ def td_update(
     replay: ReplayBuffer,
     config: TrainConfig,
     rng: np.random.Generator,
-) -> float:
-    """One training iteration on a replay mini-batch; returns the loss."""
+    teacher_weight: float = 0.0,
+) -> tuple[float, TeacherStats | None]:
+    """One training iteration on a replay mini-batch, on the Bellman error plus
+    ``teacher_weight`` times the teacher's margin loss on the labelled states; returns the
+    Bellman error and, with a teacher weight, the teacher's figures."""
     batch = replay.sample(config.batch_size, rng, next(q_network.parameters()).device)
     images, next_images = batch.images, batch.next_images
     if config.channels_last:
@@ -128,12 +136,17 @@ def td_update(
         td_target = config.reward_scale * batch.rewards + bootstrap * target_max
     q = q_network(images, batch.states).sum(dim=1)
     old_val = q.gather(1, batch.actions[:, None]).squeeze(1)
-    loss = F.mse_loss(old_val, td_target)
+    bellman = F.mse_loss(old_val, td_target)
+    loss, teacher = bellman, None
+    if teacher_weight > 0:
+        pull = margin_loss(q, batch.labels, config.teacher_margin)
+        loss = bellman + teacher_weight * pull
+        teacher = TeacherStats(float(pull), teacher_weight, agreement(q, batch.labels))
     optimizer.zero_grad()
     loss.backward()
     nn.utils.clip_grad_norm_(q_network.parameters(), config.max_grad_norm)
     optimizer.step()
-    return float(loss.item())
+    return float(bellman.item()), teacher
 
 
 def train(
@@ -196,7 +209,7 @@ def train(
     if options.offline:  # no environment: the loop only learns, one iteration per pass
         session.start_training(state)
     else:
-        episodes = TrainingEpisodes(config, replay, state)
+        episodes = TrainingEpisodes(config, replay, state, rng)
     total_iterations = config.target_iterations()
     # Offline runs, and runs given ``iterations``, stop on iterations; the others on samples.
     by_iterations = options.offline or config.iterations > 0
@@ -241,11 +254,17 @@ def train(
 
                 # --- learn: the iterations owed, target copies, evaluations, checkpoints -------
                 while state.iterations < owed:
-                    state.last_loss = td_update(
-                        q_network, target_network, optimizer, replay, config, rng
+                    state.last_loss, teacher = td_update(
+                        q_network,
+                        target_network,
+                        optimizer,
+                        replay,
+                        config,
+                        rng,
+                        config.teacher_weight_at(state.iterations),
                     )
                     state.iterations += 1
-                    scalars.training(state, epsilon, session.training_rates(state))
+                    scalars.training(state, epsilon, session.training_rates(state), teacher)
                     # CleanRL copies the target on global steps; here on training iterations,
                     # as in the paper (docs/model.md, Q-network).
                     if state.iterations % config.target_network_frequency == 0:

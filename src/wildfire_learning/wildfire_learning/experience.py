@@ -5,7 +5,8 @@ replay once, as a frame (uint8) that transitions refer to by id, so an n-step tr
 no image copy. Every aircraft's decisions go through an n-step accumulator, which releases a
 transition once its n rewards are known or its episode has ended. An episode that ends restarts
 at once on the next training seed (seeds count up from 0, wrapping below the validation seeds),
-so every step is a full batch.
+so every step is a full batch. With a teacher (``--teacher``, ``teacher.py``) each new frame
+is stored with the teacher's label, while the teacher's loss still has weight.
 
 Bags (``--from-bag``) give whole sequences rebuilt by ``bag_transitions.py``; a new replay
 holds them before any episode's transition.
@@ -23,7 +24,8 @@ from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import VALIDATION_SEED_BASE
 from wildfire_learning.exploration import PersistentExploration
 from wildfire_learning.nstep import NStepAccumulator
-from wildfire_learning.replay import ImageCodec, ReplayBuffer
+from wildfire_learning.replay import NO_LABEL, ImageCodec, ReplayBuffer
+from wildfire_learning.teacher import PlannerTeacher
 from wildfire_learning.train_config import TrainConfig, TrainState, replay_shapes
 
 if TYPE_CHECKING:  # the bag reader (rosbags) loads only for runs that read bags
@@ -80,12 +82,20 @@ def flat_aircraft(
 class TrainingEpisodes:
     """The episodes of an online run, and what the loop carries between decisions."""
 
-    def __init__(self, config: TrainConfig, replay: ReplayBuffer, state: TrainState) -> None:
+    def __init__(
+        self,
+        config: TrainConfig,
+        replay: ReplayBuffer,
+        state: TrainState,
+        rng: np.random.Generator,
+    ) -> None:
+        self.config = config
         self.n_aircraft = config.n_aircraft
         self.everyone = np.arange(config.num_envs)
+        self.teacher = None if config.teacher == "none" else PlannerTeacher(config.teacher, rng)
         self.env = WildfireVecEnv(config.env_config(), config.num_envs)
         self.observations = self.env.reset(next_training_seeds(state, config.num_envs))
-        frame_ids = replay.add_frames(*flat_aircraft(self.observations, self.everyone))
+        frame_ids = self._add_frames(replay, state, self.everyone)
         self.frame_ids = frame_ids.reshape(config.num_envs, config.n_aircraft)
         """(E, N) replay frame of every aircraft's current observation."""
         self.pending = NStepAccumulator(
@@ -94,6 +104,19 @@ class TrainingEpisodes:
         self.exploration = PersistentExploration(
             config.num_envs, config.n_aircraft, config.explore_hold
         )
+
+    def _add_frames(self, replay: ReplayBuffer, state: TrainState, envs: np.ndarray) -> np.ndarray:
+        """Store the current observations of ``envs``' aircraft, labelled by the teacher while
+        its loss has weight (an episode that has just ended is not: its last observation is
+        only ever a next one); return their frame ids (E * N,)."""
+        labels = None
+        if self.teacher is not None and self.config.teacher_weight_at(state.iterations) > 0:
+            per_env = np.full((len(envs), self.n_aircraft), NO_LABEL, dtype=np.int8)
+            running = ~self.env.done[envs]
+            labelled = self.teacher.labels(self.env, envs[running])
+            per_env[running] = labelled.reshape(-1, self.n_aircraft)
+            labels = per_env.reshape(-1)
+        return replay.add_frames(*flat_aircraft(self.observations, envs), labels=labels)
 
     def aircraft(self) -> tuple[np.ndarray, np.ndarray]:
         """Current images and pairwise states of every aircraft, env-major (one batch)."""
@@ -107,7 +130,7 @@ class TrainingEpisodes:
         active = np.flatnonzero(~env.done)
         result = env.step(actions)
         self.observations = result.observations
-        next_ids = replay.add_frames(*flat_aircraft(result.observations, active))
+        next_ids = self._add_frames(replay, state, active)
         next_ids = next_ids.reshape(-1, n)
         ready = self.pending.push(
             active,
@@ -131,7 +154,7 @@ class TrainingEpisodes:
         if ended.size:
             self.observations = env.reset(next_training_seeds(state, int(ended.size)), ended)
             self.exploration.reset(ended)
-            ended_ids = replay.add_frames(*flat_aircraft(self.observations, ended))
+            ended_ids = self._add_frames(replay, state, ended)
             self.frame_ids[ended] = ended_ids.reshape(-1, n)
         return int(active.size) * n
 

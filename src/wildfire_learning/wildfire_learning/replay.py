@@ -8,6 +8,9 @@ Two rings share the memory:
   steps)``, where ``steps`` is how many decisions the transition spans: an n-step transition
   holds the discounted sum of its ``steps`` rewards and bootstraps with ``gamma ** steps``.
 
+A frame may also hold a teacher's label: the action a privileged planner would take from
+that observation (``teacher.py``), or :data:`NO_LABEL`.
+
 A decision's next observation is the next decision's observation, so storing frames once
 halves the memory of a CleanRL-style ``(obs, next_obs)`` buffer. Frame ids are global write
 counters: a transition is valid while both its frames are still in the frame ring (checked at
@@ -44,6 +47,8 @@ OBS_SCALES = (1.0,)
 """Quantisation scale of the sensor image (binary)."""
 CAMERA_SCALE = IMAGE_SCALE
 """Quantisation scale of each camera image: pixels are 0, 0.5 or 1, stored 0, 1, 2 (exact)."""
+NO_LABEL = -1
+"""The label of a frame no teacher labelled (a bag's, a run without teacher)."""
 BELIEF_SCALES = (100.0, 255.0)
 """Quantisation scales of the belief image: the probability of burning in whole percent (as
 the shared belief carries it; 0 or 100 under the disc), age / 255 -> whole seconds."""
@@ -94,6 +99,8 @@ class Batch(NamedTuple):
     next_states: torch.Tensor
     steps: torch.Tensor
     """(B,) float32: decisions spanned (the bootstrap is discounted by gamma ** steps)."""
+    labels: torch.Tensor
+    """(B,) int64: the teacher's action from the observation, or :data:`NO_LABEL`."""
 
 
 class ReplayBuffer:
@@ -118,6 +125,7 @@ class ReplayBuffer:
         self.state_shape = tuple(state_shape)
         self.images = np.zeros((self.frame_capacity, *image_shape), dtype=np.uint8)
         self.states = np.zeros((self.frame_capacity, *state_shape), dtype=np.float32)
+        self.labels = np.full(self.frame_capacity, NO_LABEL, dtype=np.int8)
         self.obs_id = np.zeros(capacity, dtype=np.int64)
         self.next_id = np.zeros(capacity, dtype=np.int64)
         self.actions = np.zeros(capacity, dtype=np.int64)
@@ -135,6 +143,7 @@ class ReplayBuffer:
         arrays = (
             self.images,
             self.states,
+            self.labels,
             self.obs_id,
             self.next_id,
             self.actions,
@@ -145,14 +154,20 @@ class ReplayBuffer:
         return sum(a.nbytes for a in arrays)
 
     def add_frames(
-        self, images: np.ndarray, states: np.ndarray, encoded: bool = False
+        self,
+        images: np.ndarray,
+        states: np.ndarray,
+        encoded: bool = False,
+        labels: np.ndarray | None = None,
     ) -> np.ndarray:
-        """Store observations (P, C, H, W) and (P, K, 5); return their global frame ids (P,)."""
+        """Store observations (P, C, H, W) and (P, K, 5), with their teacher's labels (P,) if
+        any; return their global frame ids (P,)."""
         count = len(states)
         ids = self.frames_written + np.arange(count, dtype=np.int64)
         slots = ids % self.frame_capacity
         self.images[slots] = images if encoded else self.codec.encode(images)
         self.states[slots] = states
+        self.labels[slots] = NO_LABEL if labels is None else labels
         self.frames_written += count
         return ids
 
@@ -225,6 +240,7 @@ class ReplayBuffer:
             next_images=decode(tensor(self.images[nxt])),
             next_states=tensor(self.states[nxt]),
             steps=tensor(self.steps[slots].astype(np.float32)),
+            labels=tensor(self.labels[obs].astype(np.int64)),
         )
 
     # ------------------------------------------------------------------ persistence
@@ -234,6 +250,7 @@ class ReplayBuffer:
             path,
             images=self.images,
             states=self.states,
+            labels=self.labels,
             obs_id=self.obs_id,
             next_id=self.next_id,
             actions=self.actions,
@@ -263,6 +280,8 @@ class ReplayBuffer:
                     getattr(buffer, name)[:] = data[name]
                 if "steps" in data:  # replays saved before n-step targets hold one-step ones
                     buffer.steps[:] = data["steps"]
+                if "labels" in data:  # replays saved before teachers hold no label
+                    buffer.labels[:] = data["labels"]
                 buffer.frames_written, buffer.transitions_written = (
                     int(v) for v in data["counters"]
                 )
@@ -271,4 +290,4 @@ class ReplayBuffer:
         return buffer
 
 
-__all__ = ["BELIEF_SCALES", "OBS_SCALES", "Batch", "ImageCodec", "ReplayBuffer"]
+__all__ = ["BELIEF_SCALES", "NO_LABEL", "OBS_SCALES", "Batch", "ImageCodec", "ReplayBuffer"]

@@ -7,7 +7,9 @@ file format with only numpy and protobuf). The x axis is the sample count, Clean
 
 * every :data:`TRAINING_EVERY` iterations: ``losses/td_loss``, ``charts/epsilon``,
   ``charts/iterations_per_s`` and ``charts/samples_per_s`` (of this session's training
-  phase, as the run's summary counts them);
+  phase, as the run's summary counts them); with a teacher, while it has weight, also
+  ``losses/teacher_loss``, ``charts/teacher_weight`` and ``charts/teacher_agreement`` (the
+  fraction of the mini-batch's labelled states where the network already picks the label);
 * at every evaluation: ``eval/score``, ``eval/score_sem``, ``eval/belief_iou``,
   ``eval/reward_mean``, ``eval/q_predicted`` and ``eval/q_collected`` (the greedy policy's
   predicted and collected discounted returns).
@@ -21,6 +23,7 @@ from types import TracebackType
 
 from tensorboardX import SummaryWriter
 
+from wildfire_learning.teacher import TeacherStats
 from wildfire_learning.train_config import TrainState
 
 TRAINING_EVERY = 100
@@ -47,14 +50,26 @@ class ScalarLog:
     def __init__(self, run_dir: Path) -> None:
         self.writer = SummaryWriter(str(log_dir(run_dir)))
 
-    def training(self, state: TrainState, epsilon: float, rates: tuple[float, float]) -> None:
+    def training(
+        self,
+        state: TrainState,
+        epsilon: float,
+        rates: tuple[float, float],
+        teacher: TeacherStats | None = None,
+    ) -> None:
         """The training scalars, every :data:`TRAINING_EVERY` iterations; ``rates``: the
-        session's training-phase samples/s and iterations/s (``Session.training_rates``)."""
+        session's training-phase samples/s and iterations/s (``Session.training_rates``);
+        ``teacher``: the last mini-batch's teacher figures, in a run with a teacher."""
         if state.iterations % TRAINING_EVERY:
             return
         samples = state.samples
         if math.isfinite(state.last_loss):  # NaN until the first iteration
             self.writer.add_scalar("losses/td_loss", state.last_loss, samples)
+        if teacher is not None:
+            self.writer.add_scalar("losses/teacher_loss", teacher.loss, samples)
+            self.writer.add_scalar("charts/teacher_weight", teacher.weight, samples)
+            if math.isfinite(teacher.agreement):
+                self.writer.add_scalar("charts/teacher_agreement", teacher.agreement, samples)
         self.writer.add_scalar("charts/epsilon", epsilon, samples)
         self.writer.add_scalar("charts/samples_per_s", rates[0], samples)
         self.writer.add_scalar("charts/iterations_per_s", rates[1], samples)

@@ -23,6 +23,7 @@ from typing import Any
 
 from wildfire_agent.approaches import APPROACHES, IMAGE_SHAPES, image_shape
 from wildfire_agent.pairwise import STATE_SIZE
+from wildfire_agent.policy_names import PLANNER_POLICIES
 from wildfire_belief.radio import CommError, CommModel
 from wildfire_learning.architectures import ARCHITECTURES, build_q_network
 from wildfire_learning.env import EnvConfig
@@ -32,6 +33,8 @@ from wildfire_sim.episode import EPISODE_DEFAULTS
 
 EVAL_SEED_BASE = VALIDATION_SEED_BASE
 """Evaluation seeds during training start here; training seeds stay below."""
+TEACHERS = ("none", *PLANNER_POLICIES)
+"""Values of ``--teacher``: no teacher, or a receding-horizon planner that labels states."""
 PRE_EXTENSION_VALUES: dict[str, Any] = {
     "n_step": 1,
     "reward_scale": 1.0,
@@ -159,6 +162,23 @@ class TrainConfig:
     target_network_frequency: int = hyperparameter(
         1000, "Training iterations between target-network copies.", min=1
     )
+    teacher: str = hyperparameter(
+        "none",
+        "A planner that labels the student's states with its next action, pulled towards by a "
+        "large-margin loss (``none``: pure DQN; see teacher.py).",
+        choices=TEACHERS,
+    )
+    teacher_weight: float = hyperparameter(
+        1.0, "Weight of the teacher's margin loss at the first iteration (then falls linearly)."
+    )
+    teacher_margin: float = hyperparameter(
+        0.02, "Lead, in Q units, that the teacher's action must have over the other."
+    )
+    teacher_iterations: int = hyperparameter(
+        4000,
+        "Iterations over which the teacher's weight falls to 0 (labelling stops then).",
+        min=1,
+    )
     eval_every: int = hyperparameter(
         10_000, "Training iterations between evaluations (0: only at the end).", min=0
     )
@@ -234,6 +254,12 @@ class TrainConfig:
     def epsilon_at(self, samples: int) -> float:
         """Exploration probability after ``samples`` samples."""
         return linear_schedule(self.start_e, self.end_e, self.exploration_samples, samples)
+
+    def teacher_weight_at(self, iteration: int) -> float:
+        """Weight of the teacher's margin loss at training ``iteration`` (0 without one)."""
+        if self.teacher == "none":
+            return 0.0
+        return linear_schedule(self.teacher_weight, 0.0, self.teacher_iterations, iteration)
 
     def target_iterations(self) -> int:
         """Iterations the run will do."""
@@ -334,6 +360,7 @@ def resolve_config(saved: Mapping[str, Any] | None, given: Mapping[str, Any]) ->
 __all__ = [
     "EVAL_SEED_BASE",
     "PRE_EXTENSION_VALUES",
+    "TEACHERS",
     "RunOptions",
     "TrainConfig",
     "TrainState",

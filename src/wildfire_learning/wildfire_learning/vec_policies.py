@@ -43,7 +43,9 @@ def others_of(views: AircraftState) -> AircraftState:
     n = views.x_m.shape[-1]
     others = other_indices(n)
     receivers = np.arange(n)[:, None]
-    return AircraftState(*(f[:, receivers, others].reshape(-1, others.shape[1]) for f in views))
+    # Explicit sizes: alone (N = 1) each aircraft knows of no other, and -1 cannot be inferred.
+    count = views.x_m.shape[0] * n
+    return AircraftState(*(f[:, receivers, others].reshape(count, others.shape[1]) for f in views))
 
 
 def build_for(factory: PolicyFactory, env: WildfireVecEnv) -> Policy:
