@@ -13,6 +13,7 @@ from wildfire_agent.policy_names import BELIEF_PLANNER
 from wildfire_learning.architectures import build_q_network
 from wildfire_learning.dqn import td_update
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
+from wildfire_learning.errors import LearningError
 from wildfire_learning.experience import TrainingEpisodes, new_replay
 from wildfire_learning.replay import NO_LABEL, ImageCodec, ReplayBuffer
 from wildfire_learning.teacher import PlannerTeacher, margin_loss
@@ -28,6 +29,14 @@ def test_margin_loss_is_zero_once_the_label_leads_by_the_margin() -> None:
     # 0.05 < 0.1: 0.05.
     assert float(margin_loss(q, labels, 0.1)) == pytest.approx((0.0 + 0.1 + 0.05) / 3)
     assert float(margin_loss(q, torch.full((4,), NO_LABEL), 0.1)) == 0.0
+
+
+def test_only_a_planner_can_teach() -> None:
+    # oracle plans whole episodes on their known future: it cannot label every state.
+    with pytest.raises(LearningError, match="teacher: expected one of"):
+        TrainConfig(teacher="oracle").validate()
+    with pytest.raises(LearningError, match="teacher_margin > 0"):
+        TrainConfig(teacher="rh", teacher_margin=0.0).validate()
 
 
 @pytest.mark.parametrize("name", ["rh", BELIEF_PLANNER])

@@ -217,6 +217,10 @@ class TrainConfig:
             raise LearningError(f"learning_rate: expected > 0, got {self.learning_rate}")
         if not 0.0 <= self.end_e <= self.start_e <= 1.0:
             raise LearningError("epsilon: expected 0 <= end_e <= start_e <= 1")
+        if self.teacher not in TEACHERS:
+            raise LearningError(f"teacher: expected one of {TEACHERS}, got {self.teacher!r}")
+        if not (self.teacher_weight > 0 and self.teacher_margin > 0):
+            raise LearningError("teacher: expected teacher_weight > 0 and teacher_margin > 0")
         build_q_network(self.approach, self.arch)  # checks the architecture name
         self.env_config()
         self.eval_env_config()
