@@ -32,7 +32,7 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.policy_names import PLANNER_POLICIES, planner_config
 from wildfire_agent.receding_horizon import plan
 from wildfire_learning.env import WildfireVecEnv
-from wildfire_learning.vec_policies import flatten_aircraft, others_of
+from wildfire_learning.vec_policies import flatten_aircraft, map_index, others_of
 
 
 class PlannerTeacher:
@@ -60,16 +60,12 @@ class PlannerTeacher:
         others = others_of(env.team_views())
         own = AircraftState(*(field[aircraft] for field in own))
         others = AircraftState(*(field[aircraft] for field in others))
-        if self.config.believed_map:
-            maps = env.believed_maps()
-            map_index = aircraft if env.radio is not None else aircraft // n
-        else:
-            maps, map_index = env.maps, aircraft // n
+        believed = self.config.believed_map
         sequences = plan(
             own,
             others,
-            map_index,
-            maps,
+            map_index(env, believed)[aircraft],
+            env.believed_maps() if believed else env.maps,
             [self.rng] * aircraft.size,
             self.config,
             env.config.obs_weights,

@@ -48,6 +48,15 @@ def others_of(views: AircraftState) -> AircraftState:
     return AircraftState(*(f[:, receivers, others].reshape(count, others.shape[1]) for f in views))
 
 
+def map_index(env: WildfireVecEnv, believed_map: bool) -> np.ndarray:
+    """(E * N,) each aircraft's index into the maps a planner plans on: its episode's map, or,
+    planning on the believed map under limited radio links, its own replica's."""
+    n = env.config.n_aircraft
+    if believed_map and env.radio is not None:
+        return np.arange(env.num_envs * n)
+    return np.repeat(np.arange(env.num_envs), n)
+
+
 def build_for(factory: PolicyFactory, env: WildfireVecEnv) -> Policy:
     """The factory's policy for every aircraft of every episode of ``env`` (after a reset)."""
     n = env.config.n_aircraft
@@ -91,20 +100,19 @@ class RecedingHorizonVecPolicy:
 
     def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
         assert self.planner is not None, "reset() first"
-        n = env.config.n_aircraft
-        env_index = np.repeat(np.arange(env.num_envs), n)
         maps = env.maps
         if self.config.believed_map:
             # Only aircraft about to plan read the maps: the believed ones are made then.
             if self.planner.due().any() or self._belief_maps is None:
                 self._belief_maps = env.believed_maps()
             maps = self._belief_maps
-            if env.radio is not None:  # one map per aircraft: its own replica
-                env_index = np.arange(env.num_envs * n)
         actions = self.planner.act(
-            flatten_aircraft(env.aircraft), others_of(env.team_views()), env_index, maps
+            flatten_aircraft(env.aircraft),
+            others_of(env.team_views()),
+            map_index(env, self.config.believed_map),
+            maps,
         )
-        return actions.reshape(env.num_envs, n)
+        return actions.reshape(env.num_envs, env.config.n_aircraft)
 
 
 class QNetworkVecPolicy:
@@ -202,4 +210,5 @@ __all__ = [
     "build_for",
     "check_world",
     "make_vec_policy",
+    "map_index",
 ]
