@@ -18,6 +18,7 @@ from wildfire_learning.architectures import build_q_network  # noqa: E402
 from wildfire_learning.checkpoint import load_policy_weights  # noqa: E402
 from wildfire_learning.errors import LearningError  # noqa: E402
 from wildfire_learning.export import export_policy  # noqa: E402
+from wildfire_learning.train_config import TrainConfig  # noqa: E402
 
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))
 
@@ -57,7 +58,8 @@ def test_the_ensemble_flies_the_mean_of_its_members_q_values(tmp_path: Path) -> 
     assert card["iterations"] == 600 and card["wall_time_s"] == 4.5  # summed over members
     # A run cannot start from the mean of three networks: it names its members.
     with pytest.raises(LearningError, match="an ensemble of 3 networks"):
-        load_policy_weights(build_q_network("belief", "lite"), out, "belief", "lite")
+        config = TrainConfig(approach="belief", arch="lite")
+        load_policy_weights(config.q_network(), out, config)
 
 
 def test_the_card_records_the_paired_validation_against_each_member(tmp_path: Path) -> None:

@@ -56,6 +56,7 @@ def run_json(*args: str) -> dict:
     [
         ("obs", ["--iterations", "12"]),
         ("belief", ["--iterations", "3", "--batch-size", "4", "--arch", "paper"]),
+        ("obs", ["--iterations", "3", "--dueling"]),
     ],
 )
 def test_train_smoke_writes_policy_curve_and_checkpoint(
@@ -74,6 +75,7 @@ def test_train_smoke_writes_policy_curve_and_checkpoint(
     card = json.loads(policy.with_suffix(".json").read_text())
     assert card["approach"] == approach and card["iterations"] == iterations
     assert card["evaluation"]["episodes"] == 1
+    assert card["config"]["dueling"] == ("--dueling" in extra)
     for name in (CHECKPOINT_FILE, CURVE_CSV, CURVE_PNG, "replay.npz"):
         assert (run_dir / name).is_file(), name
     rows = list(csv.DictReader((run_dir / CURVE_CSV).read_text().splitlines()))
@@ -213,6 +215,17 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFi
             ],
             "a obs/paper policy, this run trains belief",
         ),
+        (
+            [
+                "--dueling",
+                "--init-from",
+                str(run_dir / "obs_policy.pt"),
+                "--run-dir",
+                str(tmp_path / "u"),
+            ],
+            "a obs/paper policy, this run trains obs/paper+dueling",
+        ),
+        (["--resume", "--run-dir", str(run_dir), "--dueling"], "asked obs/paper+dueling"),
         (
             [
                 "--approach",

@@ -35,19 +35,23 @@ STATE_SHAPE_K2 = (1, STATE_SIZE)
 class DownsampledQNetwork(nn.Module):
     """:class:`QNetwork` on a ``factor`` x ``factor`` average-pooled image (same signature)."""
 
-    def __init__(self, image_shape: tuple[int, int, int], factor: int = 2) -> None:
+    def __init__(
+        self, image_shape: tuple[int, int, int], factor: int = 2, dueling: bool = False
+    ) -> None:
         super().__init__()
         channels, height, width = image_shape
         self.pool = nn.AvgPool2d(factor)
-        self.q = QNetwork((channels, height // factor, width // factor))
+        self.q = QNetwork((channels, height // factor, width // factor), dueling=dueling)
 
     def forward(self, images: torch.Tensor, states: torch.Tensor) -> torch.Tensor:
         return self.q(self.pool(images), states)
 
 
-def build_q_network(approach: str, arch: str = "paper", sensor: str = "disc") -> nn.Module:
+def build_q_network(
+    approach: str, arch: str = "paper", sensor: str = "disc", dueling: bool = False
+) -> nn.Module:
     """A freshly initialised Q-network for ``approach`` (obs/belief) and ``arch``, taking
-    the approach's images in a world sensed by ``sensor``."""
+    the approach's images in a world sensed by ``sensor``, with a dueling head if ``dueling``."""
     if approach not in IMAGE_SHAPES:
         raise LearningError(f"approach: expected obs or belief, got {approach!r}")
     if arch not in ARCHITECTURES:
@@ -56,8 +60,19 @@ def build_q_network(approach: str, arch: str = "paper", sensor: str = "disc") ->
     if arch in POOLING:
         if approach != Approach.BELIEF:
             raise LearningError(f"arch {arch}: only for the belief approach (obs is already fast)")
-        return DownsampledQNetwork(shape, POOLING[arch])
-    return QNetwork(shape)
+        return DownsampledQNetwork(shape, POOLING[arch], dueling)
+    return QNetwork(shape, dueling=dueling)
 
 
-__all__ = ["ARCHITECTURES", "POOLING", "DownsampledQNetwork", "build_q_network"]
+def network_name(approach: str, arch: str, dueling: bool) -> str:
+    """How messages name a network: ``obs/paper``, ``belief/lite+dueling``."""
+    return f"{approach}/{arch}{'+dueling' if dueling else ''}"
+
+
+__all__ = [
+    "ARCHITECTURES",
+    "POOLING",
+    "DownsampledQNetwork",
+    "build_q_network",
+    "network_name",
+]

@@ -19,6 +19,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from wildfire_learning.architectures import network_name
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ReplayBuffer
 from wildfire_learning.train_config import TrainConfig, TrainState, replay_shapes, resolve_config
@@ -84,11 +85,11 @@ def resume(
     networks, optimiser and random states; return its counters and replay. The network (and
     so the replay's shapes) must be the one the checkpoint trained."""
     saved = resolve_config(payload["config"], {})
-    trained = (saved.approach, saved.arch, saved.n_aircraft)
-    if trained != (config.approach, config.arch, config.n_aircraft):
+    trained = (saved.network_name(), saved.n_aircraft)
+    if trained != (config.network_name(), config.n_aircraft):
         raise LearningError(
-            f"checkpoint {run_dir / CHECKPOINT_FILE}: incompatible (trained {trained[0]}/"
-            f"{trained[1]} with {trained[2]} aircraft, asked {config.approach}/{config.arch} "
+            f"checkpoint {run_dir / CHECKPOINT_FILE}: incompatible (trained {trained[0]} "
+            f"with {trained[1]} aircraft, asked {config.network_name()} "
             f"with {config.n_aircraft})"
         )
     try:
@@ -106,8 +107,9 @@ def resume(
     return state, replay
 
 
-def load_policy_weights(model: nn.Module, path: Path, approach: str, arch: str) -> None:
-    """Copy the weights of an exported policy file into ``model`` (same approach and arch)."""
+def load_policy_weights(model: nn.Module, path: Path, config: TrainConfig) -> None:
+    """Copy the weights of an exported policy file into ``model``, the network of ``config``
+    (same approach, arch and head)."""
     from wildfire_agent.errors import AgentConfigError
     from wildfire_agent.policies import TorchScriptPolicy
 
@@ -120,11 +122,14 @@ def load_policy_weights(model: nn.Module, path: Path, approach: str, arch: str) 
         raise LearningError(
             f"--init-from {path}: an ensemble of {members} networks (start from one of its members)"
         )
-    trained = (policy.card.get("approach"), policy.card.get("arch", "paper"))
-    if trained != (approach, arch):
+    trained = network_name(
+        str(policy.card.get("approach")),
+        str(policy.card.get("arch", "paper")),
+        bool(policy.card.get("config", {}).get("dueling", False)),
+    )
+    if trained != config.network_name():
         raise LearningError(
-            f"--init-from {path}: a {trained[0]}/{trained[1]} policy, "
-            f"this run trains {approach}/{arch}"
+            f"--init-from {path}: a {trained} policy, this run trains {config.network_name()}"
         )
     model.load_state_dict(policy.module.state_dict())
 

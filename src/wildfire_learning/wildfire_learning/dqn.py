@@ -65,7 +65,6 @@ import torch.nn.functional as F
 from torch import nn
 
 from wildfire_agent.policies import greedy_actions
-from wildfire_learning.architectures import build_q_network
 from wildfire_learning.checkpoint import (
     load_checkpoint,
     load_policy_weights,
@@ -178,9 +177,9 @@ def train(
     device = torch.device(options.device)
     memory_format = torch.channels_last if config.channels_last else torch.contiguous_format
     # torch's stubs omit the memory_format keyword that Module.to accepts.
-    q_network = build_q_network(config.approach, config.arch, config.sensor)
+    q_network = config.q_network()
     q_network = q_network.to(device, memory_format=memory_format)  # type: ignore[call-overload]
-    target_network = build_q_network(config.approach, config.arch, config.sensor)
+    target_network = config.q_network()
     target_network = target_network.to(device, memory_format=memory_format)  # type: ignore[call-overload]
     optimizer = torch.optim.Adamax(q_network.parameters(), lr=config.learning_rate)
     replay: ReplayBuffer | None = None
@@ -191,7 +190,7 @@ def train(
     else:
         state = TrainState()
         if options.init_policy is not None:
-            load_policy_weights(q_network, options.init_policy, config.approach, config.arch)
+            load_policy_weights(q_network, options.init_policy, config)
             state.initialised_from = init_summary(options.init_policy)
         target_network.load_state_dict(q_network.state_dict())
 

@@ -21,11 +21,13 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
+from torch import nn
+
 from wildfire_agent.approaches import APPROACHES, IMAGE_SHAPES, image_shape
 from wildfire_agent.pairwise import STATE_SIZE
 from wildfire_agent.policy_names import PLANNER_POLICIES
 from wildfire_belief.radio import CommError, CommModel
-from wildfire_learning.architectures import ARCHITECTURES, build_q_network
+from wildfire_learning.architectures import ARCHITECTURES, build_q_network, network_name
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import VALIDATION_SEED_BASE
@@ -159,6 +161,9 @@ class TrainConfig:
         True,
         "Double DQN targets (the online network picks the next action, the target scores it).",
     )
+    dueling: bool = hyperparameter(
+        False, "Dueling head: a state value plus the actions' advantages (q_network.py)."
+    )
     target_network_frequency: int = hyperparameter(
         1000, "Training iterations between target-network copies.", min=1
     )
@@ -221,10 +226,18 @@ class TrainConfig:
             raise LearningError(f"teacher: expected one of {TEACHERS}, got {self.teacher!r}")
         if not (self.teacher_weight > 0 and self.teacher_margin > 0):
             raise LearningError("teacher: expected teacher_weight > 0 and teacher_margin > 0")
-        build_q_network(self.approach, self.arch)  # checks the architecture name
+        self.q_network()  # checks the architecture name
         self.env_config()
         self.eval_env_config()
         return self
+
+    def q_network(self) -> nn.Module:
+        """A freshly initialised Q-network of the run's approach, arch, sensor and head."""
+        return build_q_network(self.approach, self.arch, self.sensor, self.dueling)
+
+    def network_name(self) -> str:
+        """``obs/paper``, ``belief/lite+dueling``: the network, as messages name it."""
+        return network_name(self.approach, self.arch, self.dueling)
 
     def env_config(self) -> EnvConfig:
         """Environment of training episodes."""
