@@ -57,6 +57,7 @@ def run_json(*args: str) -> dict:
         ("obs", ["--iterations", "12"]),
         ("belief", ["--iterations", "3", "--batch-size", "4", "--arch", "paper"]),
         ("obs", ["--iterations", "3", "--dueling"]),
+        ("obs", ["--iterations", "3", "--prioritized"]),
     ],
 )
 def test_train_smoke_writes_policy_curve_and_checkpoint(
@@ -76,6 +77,9 @@ def test_train_smoke_writes_policy_curve_and_checkpoint(
     assert card["approach"] == approach and card["iterations"] == iterations
     assert card["evaluation"]["episodes"] == 1
     assert card["config"]["dueling"] == ("--dueling" in extra)
+    # Prioritised replay gave the replayed transitions their Bellman errors as priorities.
+    with np.load(run_dir / "replay.npz") as replay:
+        assert (replay["priorities"] != 1.0).any() == ("--prioritized" in extra)
     for name in (CHECKPOINT_FILE, CURVE_CSV, CURVE_PNG, "replay.npz"):
         assert (run_dir / name).is_file(), name
     rows = list(csv.DictReader((run_dir / CURVE_CSV).read_text().splitlines()))

@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from wildfire_learning.errors import LearningError
-from wildfire_learning.replay import ImageCodec, ReplayBuffer
+from wildfire_learning.replay import PRIORITY_FLOOR, ImageCodec, ReplayBuffer
 
 
 def _sequence(rng: np.random.Generator, length: int, shape: tuple[int, ...]) -> tuple:
@@ -75,14 +75,51 @@ def test_save_load_round_trip(tmp_path: Path) -> None:
     buffer = ReplayBuffer(30, (2, 8, 8), (1, 5), ImageCodec.for_approach("belief"))
     for _ in range(4):
         buffer.add_sequence(*_sequence(rng, 12, (2, 8, 8)))
+    buffer.update_priorities(np.arange(10), np.linspace(0.0, 3.0, 10))
     buffer.save(tmp_path / "replay.npz")
     loaded = ReplayBuffer.load(tmp_path / "replay.npz")
     assert (loaded.frames_written, loaded.transitions_written) == (52, 48)
     assert loaded.codec == buffer.codec and loaded.frame_capacity == buffer.frame_capacity
-    a = buffer.sample(16, np.random.default_rng(9))
-    b = loaded.sample(16, np.random.default_rng(9))
-    for x, y in zip(a, b, strict=True):
-        torch.testing.assert_close(x, y, rtol=0, atol=0)
+    assert loaded.max_priority == buffer.max_priority
+    for exponents in ((0.0, 0.0), (0.6, 0.4)):  # uniform, prioritised
+        a = buffer.sample(16, np.random.default_rng(9), None, *exponents)
+        b = loaded.sample(16, np.random.default_rng(9), None, *exponents)
+        for x, y in zip(a, b, strict=True):
+            torch.testing.assert_close(x, y, rtol=0, atol=0)
     (tmp_path / "bad.npz").write_bytes(b"not a zip")
     with pytest.raises(LearningError, match="unreadable"):
         ReplayBuffer.load(tmp_path / "bad.npz")
+
+
+def test_prioritised_draws_follow_the_priorities_and_weigh_them_back() -> None:
+    buffer = ReplayBuffer(100, (1, 4, 4), (1, 5), ImageCodec.for_approach("obs"))
+    buffer.add_sequence(*_sequence(np.random.default_rng(6), 4, (1, 4, 4)))
+    # New transitions share the largest priority yet; a replayed one gets its error.
+    assert buffer.priorities[:4].tolist() == [1.0] * 4
+    buffer.update_priorities(np.arange(4), np.array([0.5, -1.0, 2.0, 1.0]))
+    np.testing.assert_allclose(buffer.priorities[:4], np.array([0.5, 1, 2, 1]) + PRIORITY_FLOOR)
+    assert buffer.max_priority == pytest.approx(2.0 + PRIORITY_FLOOR)
+    buffer.add_sequence(*_sequence(np.random.default_rng(7), 1, (1, 4, 4)))
+    assert buffer.priorities[4] == np.float32(buffer.max_priority)
+    # alpha = 1: probabilities 0.5 : 1 : 2 : 1 : 2 (out of 6.5), the floor aside.
+    batch = buffer.sample(60_000, np.random.default_rng(8), None, 1.0, 1.0)
+    counts = np.bincount(batch.slots, minlength=5) / 60_000
+    np.testing.assert_allclose(counts, np.array([0.5, 1, 2, 1, 2]) / 6.5, atol=0.01)
+    # beta = 1 undoes the skew: weight 1 / (N P), over the largest (the least likely drawn).
+    weights = dict(zip(batch.slots.tolist(), batch.weights.tolist(), strict=True))
+    assert weights[0] == 1.0 and weights[1] == weights[3] == pytest.approx(0.5, rel=1e-3)
+    assert weights[2] == weights[4] == pytest.approx(0.25, rel=1e-3)
+    # alpha = 0: uniform, every weight 1.
+    uniform = buffer.sample(64, np.random.default_rng(8))
+    assert uniform.weights.tolist() == [1.0] * 64
+
+
+def test_prioritised_draws_skip_overwritten_frames() -> None:
+    rng = np.random.default_rng(3)
+    buffer = ReplayBuffer(20, (1, 4, 4), (1, 5), ImageCodec.for_approach("obs"), frame_capacity=22)
+    for _ in range(10):
+        buffer.add_sequence(*_sequence(rng, 5, (1, 4, 4)))
+    invalid = np.flatnonzero(~buffer._valid(np.arange(20)))
+    buffer.update_priorities(invalid, np.full(len(invalid), 100.0))  # tempting, but gone
+    batch = buffer.sample(500, np.random.default_rng(4), None, 0.6, 0.4)
+    assert not np.isin(batch.slots, invalid).any()

@@ -39,6 +39,8 @@ Decisions beyond the paper (documented here, reported in the card):
   peaks of 2 025 and 1 952), the aircraft bunching on the same stretch of front; held at 0.5
   the same seeds scored 2 003 and 1 853 there (+222 and +218, paired) and plateaued. The
   greedy network is what is evaluated and deployed, so the floor costs nothing there.
+* Dueling heads (``dueling``) and prioritised replay (``prioritized``), off by default:
+  Rainbow's two levers that n-step and double-Q targets leave (q_network.py, replay.py).
 * A privileged teacher (``teacher``, off by default): a receding-horizon planner labels the
   states the network's own flights reach, and a large-margin loss on those labels is added
   to the Bellman error, its weight falling to 0 over ``teacher_iterations`` (DAgger's
@@ -112,11 +114,16 @@ def td_update(
     config: TrainConfig,
     rng: np.random.Generator,
     teacher_weight: float = 0.0,
+    priority_exponents: tuple[float, float] = (0.0, 0.0),
 ) -> tuple[float, TeacherStats | None]:
     """One training iteration on a replay mini-batch, on the Bellman error plus
     ``teacher_weight`` times the teacher's margin loss on the labelled states; returns the
-    Bellman error and, with a teacher weight, the teacher's figures."""
-    batch = replay.sample(config.batch_size, rng, next(q_network.parameters()).device)
+    Bellman error (unweighted) and, with a teacher weight, the teacher's figures. The
+    mini-batch is prioritised when ``priority_exponents`` (alpha, beta) has alpha > 0: each
+    Bellman error is then importance-weighted, and sets its transition's new priority."""
+    alpha, beta = priority_exponents
+    device = next(q_network.parameters()).device
+    batch = replay.sample(config.batch_size, rng, device, alpha, beta)
     images, next_images = batch.images, batch.next_images
     if config.channels_last:
         images = images.contiguous(memory_format=torch.channels_last)
@@ -137,9 +144,13 @@ def td_update(
     old_val = q.gather(1, batch.actions[:, None]).squeeze(1)
     bellman = F.mse_loss(old_val, td_target)
     loss, teacher = bellman, None
+    if alpha > 0:
+        errors = old_val - td_target
+        loss = (batch.weights * errors.square()).mean()
+        replay.update_priorities(batch.slots, errors.detach().cpu().numpy())
     if teacher_weight > 0:
         pull = margin_loss(q, batch.labels, config.teacher_margin)
-        loss = bellman + teacher_weight * pull
+        loss = loss + teacher_weight * pull
         teacher = TeacherStats(float(pull), teacher_weight, agreement(q, batch.labels))
     optimizer.zero_grad()
     loss.backward()
@@ -261,6 +272,7 @@ def train(
                         config,
                         rng,
                         config.teacher_weight_at(state.iterations),
+                        config.priority_exponents_at(state.iterations),
                     )
                     state.iterations += 1
                     scalars.training(state, epsilon, session.training_rates(state), teacher)

@@ -11,6 +11,16 @@ Two rings share the memory:
 A frame may also hold a teacher's label: the action a privileged planner would take from
 that observation (``teacher.py``), or :data:`NO_LABEL`.
 
+Each transition has a priority, used only by prioritised sampling (Schaul et al. 2016,
+proportional): it is drawn with probability ``priority ** alpha / sum``, and its Bellman error
+weighted by ``(N * probability) ** -beta`` over the mini-batch's largest such weight (as
+Dopamine's Rainbow; over the whole ring's, as in the paper, one nearly-learnt transition
+would scale every step down). A new transition gets
+the largest priority yet, so it is replayed at least once soon; a replayed one gets its
+absolute Bellman error (:meth:`ReplayBuffer.update_priorities`). The draw is one cumulative
+sum and a binary search over the ring per mini-batch (~0.5 ms at 70 000): no sum tree is
+needed at this size, next to a training iteration of ~50 ms.
+
 A decision's next observation is the next decision's observation, so storing frames once
 halves the memory of a CleanRL-style ``(obs, next_obs)`` buffer. Frame ids are global write
 counters: a transition is valid while both its frames are still in the frame ring (checked at
@@ -47,6 +57,8 @@ OBS_SCALES = (1.0,)
 """Quantisation scale of the sensor image (binary)."""
 CAMERA_SCALE = IMAGE_SCALE
 """Quantisation scale of each camera image: pixels are 0, 0.5 or 1, stored 0, 1, 2 (exact)."""
+PRIORITY_FLOOR = 1e-4
+"""Added to a replayed transition's absolute Bellman error (Q units): none is never drawn."""
 NO_LABEL = -1
 """The label of a frame no teacher labelled (a bag's, a run without teacher)."""
 BELIEF_SCALES = (100.0, 255.0)
@@ -101,6 +113,10 @@ class Batch(NamedTuple):
     """(B,) float32: decisions spanned (the bootstrap is discounted by gamma ** steps)."""
     labels: torch.Tensor
     """(B,) int64: the teacher's action from the observation, or :data:`NO_LABEL`."""
+    weights: torch.Tensor
+    """(B,) float32: importance weight of each Bellman error (1 under uniform sampling)."""
+    slots: np.ndarray
+    """(B,) int64: where the transitions lie, for :meth:`ReplayBuffer.update_priorities`."""
 
 
 class ReplayBuffer:
@@ -132,6 +148,8 @@ class ReplayBuffer:
         self.rewards = np.zeros(capacity, dtype=np.float32)
         self.terminated = np.zeros(capacity, dtype=np.float32)
         self.steps = np.ones(capacity, dtype=np.uint8)
+        self.priorities = np.ones(capacity, dtype=np.float32)
+        self.max_priority = 1.0
         self.frames_written = 0
         self.transitions_written = 0
 
@@ -150,6 +168,7 @@ class ReplayBuffer:
             self.rewards,
             self.terminated,
             self.steps,
+            self.priorities,
         )
         return sum(a.nbytes for a in arrays)
 
@@ -189,6 +208,7 @@ class ReplayBuffer:
         self.rewards[slots] = rewards
         self.terminated[slots] = terminated
         self.steps[slots] = steps
+        self.priorities[slots] = self.max_priority
         self.transitions_written += count
 
     def add_sequence(
@@ -209,19 +229,24 @@ class ReplayBuffer:
         return self.obs_id[slots] >= oldest_kept
 
     def sample(
-        self, batch_size: int, rng: np.random.Generator, device: torch.device | None = None
+        self,
+        batch_size: int,
+        rng: np.random.Generator,
+        device: torch.device | None = None,
+        alpha: float = 0.0,
+        beta: float = 0.0,
     ) -> Batch:
-        """A uniform mini-batch of stored transitions whose frames are still kept, as tensors
-        on ``device`` (default CPU); images travel as uint8 and are decoded there."""
+        """A mini-batch of stored transitions whose frames are still kept, as tensors on
+        ``device`` (default CPU); images travel as uint8 and are decoded there. Uniform when
+        ``alpha`` is 0, else prioritised with exponents ``alpha`` and ``beta`` (module
+        docstring)."""
         size = len(self)
         if size == 0:
             raise LearningError("replay: cannot sample from an empty buffer")
-        slots = rng.integers(0, size, batch_size)
-        for _ in range(100):
-            bad = ~self._valid(slots)
-            if not bad.any():
-                break
-            slots[bad] = rng.integers(0, size, int(bad.sum()))
+        if alpha > 0:
+            slots, weights = self._prioritised(batch_size, rng, alpha, beta)
+        else:
+            slots, weights = self._uniform(batch_size, rng), np.ones(batch_size, np.float32)
         obs = self.obs_id[slots] % self.frame_capacity
         nxt = self.next_id[slots] % self.frame_capacity
         device = device or torch.device("cpu")
@@ -241,7 +266,41 @@ class ReplayBuffer:
             next_states=tensor(self.states[nxt]),
             steps=tensor(self.steps[slots].astype(np.float32)),
             labels=tensor(self.labels[obs].astype(np.int64)),
+            weights=tensor(weights),
+            slots=slots,
         )
+
+    def _uniform(self, batch_size: int, rng: np.random.Generator) -> np.ndarray:
+        slots = rng.integers(0, len(self), batch_size)
+        for _ in range(100):
+            bad = ~self._valid(slots)
+            if not bad.any():
+                break
+            slots[bad] = rng.integers(0, len(self), int(bad.sum()))
+        return slots
+
+    def _prioritised(
+        self, batch_size: int, rng: np.random.Generator, alpha: float, beta: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        size = len(self)
+        # A transition whose frames were overwritten has probability 0.
+        mass = np.where(
+            self._valid(np.arange(size)), self.priorities[:size].astype(np.float64) ** alpha, 0.0
+        )
+        cumulative = np.cumsum(mass)
+        total = cumulative[-1]
+        if not total > 0:
+            raise LearningError("replay: no transition with both frames kept")
+        slots = np.searchsorted(cumulative, rng.random(batch_size) * total, side="right")
+        slots = np.minimum(slots, size - 1)
+        weights = (np.count_nonzero(mass) * mass[slots] / total) ** -beta
+        return slots, (weights / weights.max()).astype(np.float32)
+
+    def update_priorities(self, slots: np.ndarray, errors: np.ndarray) -> None:
+        """Set the priorities of replayed transitions to their absolute Bellman errors."""
+        priorities = np.abs(errors).astype(np.float32) + PRIORITY_FLOOR
+        self.priorities[slots] = priorities
+        self.max_priority = max(self.max_priority, float(priorities.max()))
 
     # ------------------------------------------------------------------ persistence
     def save(self, path: str | Path) -> None:
@@ -257,6 +316,8 @@ class ReplayBuffer:
             rewards=self.rewards,
             terminated=self.terminated,
             steps=self.steps,
+            priorities=self.priorities,
+            max_priority=np.float64(self.max_priority),
             counters=np.array([self.frames_written, self.transitions_written], dtype=np.int64),
             scales=np.asarray(self.codec.scales, dtype=np.float64),
         )
@@ -282,6 +343,9 @@ class ReplayBuffer:
                     buffer.steps[:] = data["steps"]
                 if "labels" in data:  # replays saved before teachers hold no label
                     buffer.labels[:] = data["labels"]
+                if "priorities" in data:  # before prioritised replay: all alike
+                    buffer.priorities[:] = data["priorities"]
+                    buffer.max_priority = float(data["max_priority"])
                 buffer.frames_written, buffer.transitions_written = (
                     int(v) for v in data["counters"]
                 )
@@ -290,4 +354,12 @@ class ReplayBuffer:
         return buffer
 
 
-__all__ = ["BELIEF_SCALES", "NO_LABEL", "OBS_SCALES", "Batch", "ImageCodec", "ReplayBuffer"]
+__all__ = [
+    "BELIEF_SCALES",
+    "NO_LABEL",
+    "OBS_SCALES",
+    "PRIORITY_FLOOR",
+    "Batch",
+    "ImageCodec",
+    "ReplayBuffer",
+]

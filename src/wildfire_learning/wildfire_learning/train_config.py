@@ -164,6 +164,20 @@ class TrainConfig:
     dueling: bool = hyperparameter(
         False, "Dueling head: a state value plus the actions' advantages (q_network.py)."
     )
+    prioritized: bool = hyperparameter(
+        False,
+        "Prioritised replay: transitions drawn in proportion to their last Bellman error "
+        "(replay.py).",
+    )
+    priority_alpha: float = hyperparameter(
+        0.6, "Prioritised replay: exponent of the priorities (0 would be uniform).", unit=True
+    )
+    priority_beta: float = hyperparameter(
+        0.4,
+        "Prioritised replay: importance-weight exponent at the first iteration (rises "
+        "linearly to 1 at the last).",
+        unit=True,
+    )
     target_network_frequency: int = hyperparameter(
         1000, "Training iterations between target-network copies.", min=1
     )
@@ -277,6 +291,13 @@ class TrainConfig:
         if self.teacher == "none":
             return 0.0
         return linear_schedule(self.teacher_weight, 0.0, self.teacher_iterations, iteration)
+
+    def priority_exponents_at(self, iteration: int) -> tuple[float, float]:
+        """Prioritised replay's (alpha, beta) at training ``iteration``; (0, 0) is uniform."""
+        if not self.prioritized:
+            return 0.0, 0.0
+        fraction = min(1.0, iteration / max(1, self.target_iterations()))
+        return self.priority_alpha, self.priority_beta + (1.0 - self.priority_beta) * fraction
 
     def target_iterations(self) -> int:
         """Iterations the run will do."""
