@@ -18,8 +18,8 @@ Dopamine's Rainbow; over the whole ring's, as in the paper, one nearly-learnt tr
 would scale every step down). A new transition gets
 the largest priority yet, so it is replayed at least once soon; a replayed one gets its
 absolute Bellman error (:meth:`ReplayBuffer.update_priorities`). The draw is one cumulative
-sum and a binary search over the ring per mini-batch (~0.5 ms at 70 000): no sum tree is
-needed at this size, next to a training iteration of ~50 ms.
+sum and a binary search over the ring per mini-batch (~1.5 ms at 70 000 here): no sum tree
+is needed at this size, next to a training iteration of ~100 ms.
 
 A decision's next observation is the next decision's observation, so storing frames once
 halves the memory of a CleanRL-style ``(obs, next_obs)`` buffer. Frame ids are global write
@@ -283,11 +283,9 @@ class ReplayBuffer:
         self, batch_size: int, rng: np.random.Generator, alpha: float, beta: float
     ) -> tuple[np.ndarray, np.ndarray]:
         size = len(self)
-        # A transition whose frames were overwritten has probability 0.
-        mass = np.where(
-            self._valid(np.arange(size)), self.priorities[:size].astype(np.float64) ** alpha, 0.0
-        )
-        cumulative = np.cumsum(mass)
+        mass = self.priorities[:size] ** np.float32(alpha)  # float32: 3x faster than float64
+        mass[~self._valid(np.arange(size))] = 0.0  # frames overwritten: probability 0
+        cumulative = np.cumsum(mass, dtype=np.float64)
         total = cumulative[-1]
         if not total > 0:
             raise LearningError("replay: no transition with both frames kept")
