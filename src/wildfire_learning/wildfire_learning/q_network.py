@@ -12,7 +12,7 @@ per ownship and its features are paired with each of its K pairwise states.
 ``dueling=True`` (an option beyond the paper, Wang et al. 2016) ends the head in two streams
 instead of the last dense layer: a state value V and the two actions' advantages A, combined
 as ``Q = V + A - mean(A)``. Both actions' Bellman errors then move the shared V, which is
-most of Q here (the two actions' values differ by ~1 %: one 5 degree bank step rarely
+most of Q here (the two actions' values differ by ~2 %: one 5 degree bank step rarely
 changes much), and the advantage stream only has to learn their small difference.
 """
 
