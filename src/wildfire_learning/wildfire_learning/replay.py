@@ -14,11 +14,11 @@ that observation (``teacher.py``), or :data:`NO_LABEL`.
 Each transition has a priority, used only by prioritised sampling (Schaul et al. 2016,
 proportional): it is drawn with probability ``priority ** alpha / sum``, and its Bellman error
 weighted by ``(N * probability) ** -beta`` over the mini-batch's largest such weight (as
-Dopamine's Rainbow; over the whole ring's, as in the paper, one nearly-learnt transition
-would scale every step down). A new transition gets
-the largest priority yet, so it is replayed at least once soon; a replayed one gets its
-absolute Bellman error (:meth:`ReplayBuffer.update_priorities`). The draw is one cumulative
-sum and a binary search over the ring per mini-batch (~1.5 ms at 70 000 here): no sum tree
+Dopamine's Rainbow does; over the whole ring's, as in the paper, one nearly-learnt transition
+would scale every step down). A new transition gets the largest priority yet, so it is
+replayed soon; a replayed one gets its absolute Bellman error
+(:meth:`ReplayBuffer.update_priorities`). The draw is one cumulative sum and a binary search
+over the ring per mini-batch (1.6 ms at 70 000 here, against 0.4 ms uniform): no sum tree
 is needed at this size, next to a training iteration of ~100 ms.
 
 A decision's next observation is the next decision's observation, so storing frames once
