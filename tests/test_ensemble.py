@@ -63,7 +63,10 @@ def test_the_ensemble_flies_the_mean_of_its_members_q_values(tmp_path: Path) -> 
 
 
 def test_the_card_records_the_paired_validation_against_each_member(tmp_path: Path) -> None:
-    members = [member(tmp_path, "a", 1), member(tmp_path, "b", 2)]
+    # Two runs' policies share a file name: the card tells them apart by their paths.
+    (tmp_path / "run1").mkdir()
+    (tmp_path / "run2").mkdir()
+    members = [member(tmp_path / "run1", "a", 1), member(tmp_path / "run2", "a", 2)]
     out = tmp_path / "ensemble.pt"
     args = ("--episodes", "2", "--shapes", "arc", "--workers", "2", "--json")
     done = ensemble(*map(str, members), "--out", str(out), *args)
@@ -73,7 +76,9 @@ def test_the_card_records_the_paired_validation_against_each_member(tmp_path: Pa
     assert card["selection"] == selection and selection["validation_seeds"] == [1000000, 1000001]
     arc = selection["by_shape"]["arc"]
     assert card["evaluation"]["score_mean"] == arc["score_mean"]
-    for name in ("a.pt", "b.pt"):
+    labels = [str(path) for path in members]
+    assert [m["file"] for m in card["ensemble"]["members"]] == labels
+    for name in labels:
         versus = arc["members"][name]
         assert versus["paired_gain"] == pytest.approx(arc["score_mean"] - versus["score_mean"])
         assert versus["wins"] + versus["losses"] <= 2

@@ -69,15 +69,22 @@ def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+def member_labels(paths: Sequence[Path]) -> list[str]:
+    """How the card names each member: its file name, or its path where members share a
+    name (two runs' ``obs_policy.pt``), so that no member's comparison hides another's."""
+    names = [path.name for path in paths]
+    return [str(path) if names.count(path.name) > 1 else path.name for path in paths]
+
+
 def ensemble_card(cards: list[dict[str, Any]], paths: list[Path]) -> dict[str, Any]:
     """The ensemble's card: the first member's card for what a loader reads (approach, image
     shape, format, config, learning curve), ``ensemble`` with every member, and the training
     cost summed over the members (``iterations``, ``samples``, ``wall_time_s``)."""
     first = cards[0]
     members = [
-        {"file": path.name, "sha256": _sha256(path)}
+        {"file": label, "sha256": _sha256(path)}
         | {key: card[key] for key in MEMBER_CARD_KEYS if key in card}
-        for path, card in zip(paths, cards, strict=True)
+        for label, path, card in zip(member_labels(paths), paths, cards, strict=True)
     ]
     # Its own evaluation and selection come from validate(), its tests from eval --card.
     dropped = ("test_evaluations", "evaluation", "selection")
@@ -159,8 +166,8 @@ def validate(
             "score_mean": round(float(ours.scores.mean()), 2),
             "score_sem": round(standard_error(ours.scores), 1),
             "members": {
-                path.name: paired(ours, summary)
-                for path, summary in zip(members, theirs, strict=True)
+                label: paired(ours, summary)
+                for label, summary in zip(member_labels(members), theirs, strict=True)
             },
         }
     first = summaries[0].to_json()
@@ -187,6 +194,7 @@ __all__ = [
     "QEnsemble",
     "ensemble_card",
     "ensemble_policy",
+    "member_labels",
     "paired",
     "validate",
 ]
