@@ -10,6 +10,7 @@ import torch
 
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import PRIORITY_FLOOR, ImageCodec, ReplayBuffer
+from wildfire_learning.train_config import TrainConfig
 
 
 def _sequence(rng: np.random.Generator, length: int, shape: tuple[int, ...]) -> tuple:
@@ -123,3 +124,13 @@ def test_prioritised_draws_skip_overwritten_frames() -> None:
     buffer.update_priorities(invalid, np.full(len(invalid), 100.0))  # tempting, but gone
     batch = buffer.sample(500, np.random.default_rng(4), None, 0.6, 0.4)
     assert not np.isin(batch.slots, invalid).any()
+
+
+def test_prioritised_replay_s_beta_rises_to_one_over_the_run() -> None:
+    config = TrainConfig(prioritized=True, iterations=100)
+    assert config.priority_exponents_at(0) == (0.6, 0.4)
+    assert config.priority_exponents_at(50)[1] == pytest.approx(0.7)
+    assert config.priority_exponents_at(100)[1] == config.priority_exponents_at(500)[1] == 1.0
+    assert TrainConfig(iterations=100).priority_exponents_at(50) == (0.0, 0.0)  # uniform
+    with pytest.raises(LearningError, match="priority_beta in"):
+        TrainConfig(prioritized=True, priority_beta=1.5).validate()

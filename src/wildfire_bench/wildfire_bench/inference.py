@@ -88,8 +88,8 @@ def iteration_ms(approach: str, arch: str, repeats: int, device: str = "cpu") ->
     config = TrainConfig(approach=approach, arch=arch)
     memory_format = torch.channels_last if config.channels_last else torch.contiguous_format
     # torch's stubs omit the memory_format keyword that Module.to accepts.
-    q_network = build_q_network(approach, arch).to(device, memory_format=memory_format)  # type: ignore[call-overload]
-    target = build_q_network(approach, arch).to(device, memory_format=memory_format)  # type: ignore[call-overload]
+    q_network = config.q_network().to(device, memory_format=memory_format)  # type: ignore[call-overload]
+    target = config.q_network().to(device, memory_format=memory_format)  # type: ignore[call-overload]
     optimizer = torch.optim.Adamax(q_network.parameters(), lr=config.learning_rate)
     shape = IMAGE_SHAPES[approach]
     replay = ReplayBuffer(1_000, shape, (1, 5), ImageCodec.for_approach(approach))

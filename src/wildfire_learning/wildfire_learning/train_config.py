@@ -47,12 +47,13 @@ PRE_EXTENSION_VALUES: dict[str, Any] = {
 keeps training the way it started (one-step, unscaled, plain epsilon-greedy, single Q)."""
 
 
-def linear_schedule(start_e: float, end_e: float, duration: int, t: int) -> float:
-    """Epsilon at sample ``t``: linear from ``start_e`` to ``end_e`` over ``duration``."""
+def linear_schedule(start: float, end: float, duration: int, t: int) -> float:
+    """Linear from ``start`` at ``t = 0`` to ``end`` at ``t = duration``, then ``end`` (falling
+    like epsilon, or rising like prioritised replay's beta)."""
     if duration <= 0:
-        return end_e
-    slope = (end_e - start_e) / duration
-    return max(slope * t + start_e, end_e)
+        return end
+    value = (end - start) / duration * t + start
+    return max(value, end) if end <= start else min(value, end)
 
 
 def hyperparameter(default: Any, help: str, **option: Any) -> Any:
@@ -240,6 +241,8 @@ class TrainConfig:
             raise LearningError(f"teacher: expected one of {TEACHERS}, got {self.teacher!r}")
         if not (self.teacher_weight > 0 and self.teacher_margin > 0):
             raise LearningError("teacher: expected teacher_weight > 0 and teacher_margin > 0")
+        if not (0.0 <= self.priority_alpha <= 1.0 and 0.0 <= self.priority_beta <= 1.0):
+            raise LearningError("priority: expected priority_alpha and priority_beta in [0, 1]")
         self.q_network()  # checks the architecture name
         self.env_config()
         self.eval_env_config()
@@ -296,8 +299,8 @@ class TrainConfig:
         """Prioritised replay's (alpha, beta) at training ``iteration``; (0, 0) is uniform."""
         if not self.prioritized:
             return 0.0, 0.0
-        fraction = min(1.0, iteration / max(1, self.target_iterations()))
-        return self.priority_alpha, self.priority_beta + (1.0 - self.priority_beta) * fraction
+        beta = linear_schedule(self.priority_beta, 1.0, self.target_iterations(), iteration)
+        return self.priority_alpha, beta
 
     def target_iterations(self) -> int:
         """Iterations the run will do."""
