@@ -290,6 +290,26 @@ def _replay_in_env(config: EnvConfig, seed: int, actions: np.ndarray) -> Rollout
     )
 
 
+def _assert_bag_rebuilds_env(bag: Path, max_duration_s: float, decisions: int) -> None:
+    """Both approaches' transitions rebuilt from a 2-aircraft recording of seed 7 equal the
+    environment's under the recorded actions."""
+    for approach in ("obs", "belief"):
+        config = EnvConfig(
+            observation=approach,
+            reward=approach,
+            shapes=("circular",),
+            max_duration_s=max_duration_s,
+        )
+        sequences = transitions_from_bags([bag], approach, config)
+        actions = np.stack([s.actions for s in sequences], axis=1)
+        assert actions.shape == (decisions, 2)
+        expected = _replay_in_env(config, 7, actions)
+        for k, sequence in enumerate(sequences):
+            np.testing.assert_array_equal(sequence.images, expected.images[:, k])
+            np.testing.assert_array_equal(sequence.states, expected.states[:, k])
+            np.testing.assert_array_equal(sequence.rewards, expected.rewards[:, k])
+
+
 def test_bag_recorded_by_wildfire_run_rebuilds_environment_transitions(tmp_path: Path) -> None:
     """A real lockstep recording (`wildfire run --fast --record`) against the environment."""
     bag = tmp_path / "run"
@@ -316,18 +336,7 @@ def test_bag_recorded_by_wildfire_run_rebuilds_environment_transitions(tmp_path:
         check=False,
     )
     assert done.returncode == 0, done.stderr
-    for approach in ("obs", "belief"):
-        config = EnvConfig(
-            observation=approach, reward=approach, shapes=("circular",), max_duration_s=6.0
-        )
-        sequences = transitions_from_bags([bag], approach, config)
-        actions = np.stack([s.actions for s in sequences], axis=1)
-        assert actions.shape == (60, 2)
-        expected = _replay_in_env(config, 7, actions)
-        for k, sequence in enumerate(sequences):
-            np.testing.assert_array_equal(sequence.images, expected.images[:, k])
-            np.testing.assert_array_equal(sequence.states, expected.states[:, k])
-            np.testing.assert_array_equal(sequence.rewards, expected.rewards[:, k])
+    _assert_bag_rebuilds_env(bag, max_duration_s=6.0, decisions=60)
 
 
 @pytest.mark.dds
@@ -367,15 +376,4 @@ def test_belief_lockstep_recording_is_compact_and_rebuilds_every_transition(
     with AnyReader([bag], default_typestore=typestore()) as reader:
         for connection, _, raw in reader.messages():
             reader.deserialize(raw, connection.msgtype)
-    for approach in ("obs", "belief"):
-        config = EnvConfig(
-            observation=approach, reward=approach, shapes=("circular",), max_duration_s=60.0
-        )
-        sequences = transitions_from_bags([bag], approach, config)
-        actions = np.stack([s.actions for s in sequences], axis=1)
-        assert actions.shape == (600, 2)
-        expected = _replay_in_env(config, 7, actions)
-        for k, sequence in enumerate(sequences):
-            np.testing.assert_array_equal(sequence.images, expected.images[:, k])
-            np.testing.assert_array_equal(sequence.states, expected.states[:, k])
-            np.testing.assert_array_equal(sequence.rewards, expected.rewards[:, k])
+    _assert_bag_rebuilds_env(bag, max_duration_s=60.0, decisions=600)
