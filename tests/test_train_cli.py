@@ -64,15 +64,17 @@ def test_train_smoke_writes_policy_curve_and_checkpoint(
     tmp_path: Path, approach: str, extra: list[str]
 ) -> None:
     run_dir = tmp_path / "run"
+    policy = run_dir / f"{approach}_policy.pt"
     summary = run_json(
-        "--approach", approach, *TINY, *extra, "--run-dir", str(run_dir), "--baseline", "123.5"
+        *("--approach", approach, *TINY, *extra, "--baseline", "123.5"),
+        # --out inside the --run-dir that the run creates.
+        *("--run-dir", str(run_dir), "--out", str(policy)),
     )
     iterations = int(extra[1])
     assert summary["iterations"] == iterations
     # One iteration per 10 samples after the 100-sample prefill (a step adds 4 samples).
     assert 100 + 10 * (iterations - 1) < summary["samples"] <= 100 + 10 * iterations + 4 + 100
     assert summary["receding_horizon_score"] == 123.5
-    policy = run_dir / f"{approach}_policy.pt"
     card = json.loads(policy.with_suffix(".json").read_text())
     assert card["approach"] == approach and card["iterations"] == iterations
     assert card["evaluation"]["episodes"] == 1
@@ -208,6 +210,7 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFi
         (["--approach", "obs", "--arch", "fast", "--run-dir", str(tmp_path / "y")], "fast"),
         (["--baseline", "nothing.json", "--run-dir", str(tmp_path / "z")], "--baseline"),
         (["--lr", "-1"], "expected a number > 0"),
+        (["--out", str(tmp_path / "no" / "p.pt"), "--run-dir", str(tmp_path / "t")], "not exist"),
         (
             [
                 "--approach",

@@ -180,7 +180,9 @@ def run(args: argparse.Namespace) -> int:
         init_policy=args.init_from,
         device=str(device),
     )
-    if args.out is not None and not out.parent.is_dir():
+    # The run creates its own directory, so an --out inside it is fine before it exists.
+    inside_run_dir = out.parent.resolve() == run_dir.resolve()
+    if args.out is not None and not out.parent.is_dir() and not inside_run_dir:
         raise UserError(f"--out {out}: directory {out.parent} does not exist")
 
     # `kill PID` of a background run checkpoints like Ctrl-C does (see dqn.train).
