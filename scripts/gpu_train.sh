@@ -28,7 +28,8 @@ OUT=${OUT:-runs/gpu}
 PYTHON=${PYTHON:-python3}
 RUN_DIR=${RUN_DIR:-/tmp/wildfire-gpu-run}
 
-PYTHONPATH=$(printf '%s:' "$PWD"/src/wildfire_*)${PYTHONPATH:-}
+packages=("$PWD"/src/wildfire_*)
+PYTHONPATH=$(IFS=:; echo "${packages[*]}")${PYTHONPATH:+:$PYTHONPATH}
 export PYTHONPATH PYTHONUNBUFFERED=1
 mkdir -p "$OUT" "$RUN_DIR"
 wildfire=("$PYTHON" -c 'import sys; from wildfire_cli import main; sys.exit(main())')
