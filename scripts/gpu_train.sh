@@ -49,9 +49,10 @@ timeout -s TERM "$BUDGET_S" "${wildfire[@]}" train --approach belief --arch pape
 if [ "$status" = 124 ]; then
     # Stopped at the budget: SIGTERM saved a checkpoint; resuming it to the iteration it
     # reached trains no further and evaluates and exports that network.
-    read -r done_iterations wall_s < <("$PYTHON" -c 'import sys, torch
-state = torch.load(sys.argv[1], map_location="cpu", weights_only=False)["state"]
-print(state["iterations"], round(state["wall_time_s"]))' "$RUN_DIR/checkpoint.pt")
+    read -r done_iterations wall_s < <("$PYTHON" -c 'import sys, pathlib
+from wildfire_learning.checkpoint import load_checkpoint
+state = load_checkpoint(pathlib.Path(sys.argv[1]))["state"]
+print(state["iterations"], round(state["wall_time_s"]))' "$RUN_DIR")
     echo "stopped at the ${BUDGET_S} s budget: $done_iterations iterations in $wall_s s," \
         "the replay prefill included" | tee "$OUT/budget.txt"
     "${wildfire[@]}" train --resume --iterations "$done_iterations" "${common[@]}" \
