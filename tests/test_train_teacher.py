@@ -15,8 +15,9 @@ from wildfire_learning.dqn import td_update
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.errors import LearningError
 from wildfire_learning.experience import TrainingEpisodes, new_replay
+from wildfire_learning.oracle import OracleConfig, known_future, plan_episode
 from wildfire_learning.replay import NO_LABEL, ImageCodec, ReplayBuffer
-from wildfire_learning.teacher import PlannerTeacher, margin_loss
+from wildfire_learning.teacher import OracleTeacher, PlannerTeacher, margin_loss
 from wildfire_learning.train_config import TrainConfig, TrainState
 from wildfire_learning.vec_policies import make_vec_policy
 from wildfire_sim.seeding import Stream, generator
@@ -32,9 +33,12 @@ def test_margin_loss_is_zero_once_the_label_leads_by_the_margin() -> None:
 
 
 def test_only_a_planner_can_teach() -> None:
-    # oracle plans whole episodes on their known future: it cannot label every state.
     with pytest.raises(LearningError, match="teacher: expected one of"):
-        TrainConfig(teacher="oracle").validate()
+        TrainConfig(teacher="random").validate()
+    # The oracle's coverage count is the score of the paper's world only.
+    for world in ({"sensor": "camera"}, {"comm": "range=500"}):
+        with pytest.raises(LearningError, match="oracle plans on the paper's world only"):
+            TrainConfig(teacher="oracle", **world).validate()  # type: ignore[arg-type]
     with pytest.raises(LearningError, match="teacher_margin > 0"):
         TrainConfig(teacher="rh", teacher_margin=0.0).validate()
 
@@ -61,6 +65,24 @@ def test_a_label_is_the_action_the_planner_flies_when_it_plans(name: str) -> Non
     assert replans == 3  # decisions 0, 10 and 20
 
 
+def test_an_oracle_label_is_the_action_the_oracle_flies_when_it_replans() -> None:
+    # Flying the oracle's own flight, the teacher asked at the oracle's re-plans (decisions
+    # 0, 10, 20) re-plans from the same poses, the same covered cells (the team's belief) and
+    # the same warm start, with the same random streams: it must choose what the oracle flew.
+    config = EnvConfig(n_aircraft=2).validate()
+    oracle_config = OracleConfig(incumbents=())
+    flight = plan_episode(known_future(11, config), oracle_config).actions
+    env = WildfireVecEnv(config, 1)
+    env.reset(np.array([11]))
+    teacher = OracleTeacher(oracle_config)
+    for decision in range(25):
+        if decision % oracle_config.replan_every == 0:
+            label = teacher.labels(env, np.array([0]))
+            assert label.tolist() == flight[:, decision].tolist(), decision
+        env.step(flight[None, :, decision])
+    assert env.scores[0] > 0  # the flight found fire to score, so covered cells mattered
+
+
 def test_labels_travel_with_their_frames_and_survive_a_save(tmp_path: Path) -> None:
     replay = ReplayBuffer(10, (1, 2, 2), (1, 5), ImageCodec.for_approach("obs"))
     images = np.zeros((4, 1, 2, 2), np.float32)
@@ -78,9 +100,10 @@ def test_labels_travel_with_their_frames_and_survive_a_save(tmp_path: Path) -> N
     assert loaded.labels[:5].tolist() == [1, 0, 1, NO_LABEL, NO_LABEL]
 
 
-def test_training_episodes_label_while_the_teacher_has_weight() -> None:
+@pytest.mark.parametrize("name", ["rh", "oracle"])
+def test_training_episodes_label_while_the_teacher_has_weight(name: str) -> None:
     config = TrainConfig(
-        approach="obs", num_envs=2, teacher="rh", teacher_iterations=5, episode_seconds=3.0
+        approach="obs", num_envs=2, teacher=name, teacher_iterations=5, episode_seconds=3.0
     ).validate()
     replay = new_replay(config, 500, [])
     state = TrainState()

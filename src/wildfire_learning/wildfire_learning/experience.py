@@ -25,7 +25,7 @@ from wildfire_learning.evaluate import VALIDATION_SEED_BASE
 from wildfire_learning.exploration import PersistentExploration
 from wildfire_learning.nstep import NStepAccumulator
 from wildfire_learning.replay import NO_LABEL, ImageCodec, ReplayBuffer
-from wildfire_learning.teacher import PlannerTeacher
+from wildfire_learning.teacher import make_teacher
 from wildfire_learning.train_config import TrainConfig, TrainState, replay_shapes
 
 if TYPE_CHECKING:  # the bag reader (rosbags) loads only for runs that read bags
@@ -92,7 +92,7 @@ class TrainingEpisodes:
         self.config = config
         self.n_aircraft = config.n_aircraft
         self.everyone = np.arange(config.num_envs)
-        self.teacher = None if config.teacher == "none" else PlannerTeacher(config.teacher, rng)
+        self.teacher = None if config.teacher == "none" else make_teacher(config.teacher, rng)
         self.env = WildfireVecEnv(config.env_config(), config.num_envs)
         self.observations = self.env.reset(next_training_seeds(state, config.num_envs))
         frame_ids = self._add_frames(replay, state, self.everyone)

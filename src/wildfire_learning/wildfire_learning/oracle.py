@@ -234,6 +234,63 @@ class OraclePlan(NamedTuple):
     y_m: np.ndarray
 
 
+Pose = tuple[float, float, float, int]
+"""One aircraft as the compiled kernels take it: x, y, heading, bank level."""
+
+
+def replan_team(
+    future: KnownFuture,
+    config: OracleConfig,
+    plan: np.ndarray,
+    state: dict[int, Pose],
+    free: list[int],
+    covered: np.ndarray,
+    d0: int,
+    horizon: int,
+    rngs: dict[int, np.random.Generator],
+    keep_tail: bool = False,
+) -> None:
+    """One re-plan at decision ``d0`` (``d0`` decisions flown, aircraft ``free`` at poses
+    ``state``): each of them in turn, for ``config.rounds`` rounds, chooses the next
+    ``horizon`` actions of its row of ``plan`` (N, >= d0 + horizon + tau) maximising the cells
+    it newly covers, given ``covered`` (H * W,) and the others' rows (iterated best response).
+    Past a plan's horizon the bank it ends on is held, or with ``keep_tail`` the actions kept.
+    The oracle's own search and the oracle teacher (``teacher.py``) both plan with it."""
+    steps = min(horizon, future.decisions - d0)
+    ss, es, sums = future.start_step, future.end_step, future.open_sums
+    for _ in range(config.rounds):
+        for k in free:
+            others = covered.copy()
+            for j in free:
+                if j != k:
+                    x, y, _, _ = fly_path(*state[j], plan[j, d0 : d0 + steps], RATES)
+                    cover(x, y, d0 + 1, ss, es, others)
+            base = np.where(others, -1, NEVER).astype(np.int64)
+            late = es * DECISIONS_PER_FIRE_STEP > d0 + config.urgent_window
+            weight = np.where(late, config.late_weight, 1.0)
+            level = state[k][3]
+            restarts = [
+                plan[k, d0 : d0 + steps].copy(),
+                _hold(level, steps, MAX_BANK_STEPS),
+                _hold(level, steps, -MAX_BANK_STEPS),
+                _hold(level, steps, 0),
+            ]
+            restarts += [
+                _random_profile(rngs[k], level, steps) for _ in range(config.random_restarts)
+            ]
+            best, _ = search(
+                *state[k], d0 + 1, np.stack(restarts), base, weight, ss, es, sums, RATES,
+                config.sample_every, config.max_passes,
+            )  # fmt: skip
+            plan[k, d0 : d0 + steps] = best
+            if keep_tail:
+                continue
+            # Past the horizon: hold the bank the plan ends on.
+            tail = min(plan.shape[1] - (d0 + steps), horizon + config.replan_every)
+            end_level = _level_after(level, best)
+            plan[k, d0 + steps : d0 + steps + tail] = _hold(end_level, tail, end_level)
+
+
 def _receding_horizon(
     future: KnownFuture,
     config: OracleConfig,
@@ -256,45 +313,13 @@ def _receding_horizon(
             int(start.bank_steps[k]))
         for k in free
     }  # fmt: skip
-    ss, es, sums = future.start_step, future.end_step, future.open_sums
     for d0 in range(0, length, tau):
-        steps = min(horizon, length - d0)
-        for _ in range(config.rounds):
-            for k in free:
-                others = covered.copy()
-                for j in free:
-                    if j != k:
-                        x, y, _, _ = fly_path(*state[j], plan[j, d0 : d0 + steps], RATES)
-                        cover(x, y, d0 + 1, ss, es, others)
-                base = np.where(others, -1, NEVER).astype(np.int64)
-                late = es * DECISIONS_PER_FIRE_STEP > d0 + config.urgent_window
-                weight = np.where(late, config.late_weight, 1.0)
-                level = state[k][3]
-                restarts = [
-                    plan[k, d0 : d0 + steps].copy(),
-                    _hold(level, steps, MAX_BANK_STEPS),
-                    _hold(level, steps, -MAX_BANK_STEPS),
-                    _hold(level, steps, 0),
-                ]
-                restarts += [
-                    _random_profile(rngs[k], level, steps) for _ in range(config.random_restarts)
-                ]
-                best, _ = search(
-                    *state[k], d0 + 1, np.stack(restarts), base, weight, ss, es, sums, RATES,
-                    config.sample_every, config.max_passes,
-                )  # fmt: skip
-                plan[k, d0 : d0 + steps] = best
-                if keep_tail:
-                    continue
-                # Past the horizon: hold the bank the plan ends on.
-                tail = min(plan.shape[1] - (d0 + steps), horizon + tau)
-                end_level = _level_after(level, best)
-                plan[k, d0 + steps : d0 + steps + tail] = _hold(end_level, tail, end_level)
+        replan_team(future, config, plan, state, free, covered, d0, horizon, rngs, keep_tail)
         # Commit the next tau decisions, flown and scored exactly.
         commit = min(tau, length - d0)
         for k in free:
             xs, ys, hs, levels = fly_path(*state[k], plan[k, d0 : d0 + commit], RATES)
-            cover(xs, ys, d0 + 1, ss, es, covered)
+            cover(xs, ys, d0 + 1, future.start_step, future.end_step, covered)
             state[k] = (float(xs[-1]), float(ys[-1]), float(hs[-1]), int(levels[-1]))
     return plan[:, :length].copy()
 
@@ -318,14 +343,18 @@ def _padded(future: KnownFuture, actions: np.ndarray, pad: int) -> np.ndarray:
     return plan
 
 
+def first_plan(future: KnownFuture, config: OracleConfig) -> np.ndarray:
+    """(N, decisions + T + tau): the plan the search starts from, every aircraft levelling
+    its wings and flying straight."""
+    length = future.decisions + config.horizon + config.replan_every
+    return np.stack([_hold(int(bank), length, 0) for bank in future.start.bank_steps.tolist()])
+
+
 def plan_episode(future: KnownFuture, config: OracleConfig | None = None) -> OraclePlan:
     """The search's own flight of the episode ``future`` (see the module docstring)."""
     config = config or OracleConfig()
     n = future.start.x_m.shape[0]
-    pad = config.horizon + config.replan_every
-    plan = np.zeros((n, future.decisions + pad), np.int64)
-    for k in range(n):
-        plan[k] = _hold(int(future.start.bank_steps[k]), plan.shape[1], 0)
+    plan = first_plan(future, config)
     covered = np.zeros(future.start_step.size, np.bool_)
     actions = _receding_horizon(future, config, plan, list(range(n)), covered, config.horizon)
     return _as_plan(future, actions)
@@ -454,8 +483,10 @@ __all__ = [
     "OraclePlan",
     "OracleVecPolicy",
     "coverage_score",
+    "first_plan",
     "fly",
     "known_future",
     "plan_episode",
     "refine",
+    "replan_team",
 ]

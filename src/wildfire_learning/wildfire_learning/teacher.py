@@ -17,9 +17,12 @@ teacher does, with values the Bellman targets keep calibrated; then the team rew
 decides, so the student can move past a teacher that sees the truth but plans each aircraft
 alone over 6 s.
 
-``oracle`` cannot teach this way: it plans the whole episode on its known future, tens of
-seconds per episode, and would have to re-plan from every state the student visits.
-"""
+``oracle`` teaches the same way (:class:`OracleTeacher`): at every decision it re-plans the
+team from where the aircraft now are, on the episode's known future, with the cells the team
+has already scored counted as covered, and labels each aircraft with its plan's first
+action. It is the oracle's own re-plan (``oracle.replan_team``) without the incumbents and the
+whole-episode refinement; its labels cost about ten times the ``rh`` teacher's (README,
+Training)."""
 
 from __future__ import annotations
 
@@ -32,7 +35,19 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.policy_names import PLANNER_POLICIES, planner_config
 from wildfire_agent.receding_horizon import plan
 from wildfire_learning.env import WildfireVecEnv
+from wildfire_learning.oracle import (
+    KnownFuture,
+    OracleConfig,
+    first_plan,
+    known_future,
+    replan_team,
+)
+from wildfire_learning.oracle_kernels import NEVER
 from wildfire_learning.vec_policies import flatten_aircraft, map_index, others_of
+from wildfire_sim.seeding import Stream, generator
+
+ORACLE_TEACHER = "oracle"
+"""The ``--teacher`` value of :class:`OracleTeacher`."""
 
 
 class PlannerTeacher:
@@ -73,6 +88,75 @@ class PlannerTeacher:
         return sequences[:, 0].astype(np.int8)
 
 
+class _OracleEpisode(NamedTuple):
+    """What the oracle teacher keeps of one environment's episode."""
+
+    future: KnownFuture
+    plan: np.ndarray
+    """(N, decisions + T + tau) the team's current plan, the warm start of the next re-plan."""
+    rngs: dict[int, np.random.Generator]
+    """Each aircraft's random restarts, the streams the oracle's own search draws from."""
+
+
+class OracleTeacher:
+    """Labels the aircraft of a :class:`WildfireVecEnv` with the clairvoyant planner's next
+    action (see the module docstring). Only for the paper's world (ideal links, disc sensing),
+    where the team's score is the oracle's coverage count."""
+
+    def __init__(self, config: OracleConfig | None = None) -> None:
+        self.config = config or OracleConfig(incumbents=())
+        self.episodes: dict[int, _OracleEpisode] = {}
+        """By environment, the episode it flies now (replaced when its seed changes)."""
+
+    def _episode(self, env: WildfireVecEnv, e: int) -> _OracleEpisode:
+        seed = int(env.seeds[e])
+        kept = self.episodes.get(e)
+        if kept is not None and kept.future.seed == seed:
+            return kept
+        future = known_future(seed, env.config)
+        n = env.config.n_aircraft
+        plan = first_plan(future, self.config)
+        rngs = {k: generator(seed, Stream.AIRCRAFT, k) for k in range(n)}
+        self.episodes[e] = _OracleEpisode(future, plan, rngs)
+        return self.episodes[e]
+
+    def labels(self, env: WildfireVecEnv, envs: np.ndarray) -> np.ndarray:
+        """The oracle's action (P,) int8 for each aircraft of the episodes ``envs`` (P = E * N,
+        env-major, as the replay stores their frames)."""
+        n = env.config.n_aircraft
+        labels = np.zeros((len(envs), n), np.int8)
+        believed = env.believed().reshape(env.num_envs, -1)
+        for row, e in enumerate(np.asarray(envs, dtype=np.int64).tolist()):
+            episode = self._episode(env, e)
+            d0 = int(env.decisions[e])
+            if d0 >= episode.future.decisions:
+                continue
+            # A cell the team believes burning has been scored (under ideal links and disc
+            # sensing nothing else makes it so); one that can still score is not.
+            covered = believed[e] & (episode.future.start_step < NEVER)
+            state = {
+                k: (float(env.aircraft.x_m[e, k]), float(env.aircraft.y_m[e, k]),
+                    float(env.aircraft.heading_rad[e, k]), int(env.aircraft.bank_steps[e, k]))
+                for k in range(n)
+            }  # fmt: skip
+            replan_team(
+                episode.future, self.config, episode.plan, state, list(range(n)), covered, d0,
+                self.config.horizon, episode.rngs,
+            )  # fmt: skip
+            labels[row] = episode.plan[:, d0]
+        return labels.reshape(-1)
+
+
+Teacher = PlannerTeacher | OracleTeacher
+
+
+def make_teacher(name: str, rng: np.random.Generator) -> Teacher:
+    """The teacher ``--teacher name`` names (not ``none``)."""
+    if name == ORACLE_TEACHER:
+        return OracleTeacher()
+    return PlannerTeacher(name, rng)
+
+
 class TeacherStats(NamedTuple):
     """The teacher's figures on one mini-batch (logged to TensorBoard)."""
 
@@ -105,4 +189,13 @@ def margin_loss(q: torch.Tensor, labels: torch.Tensor, margin: float) -> torch.T
     return (best - q.gather(1, labels[:, None]).squeeze(1)).mean()
 
 
-__all__ = ["PlannerTeacher", "TeacherStats", "agreement", "margin_loss"]
+__all__ = [
+    "ORACLE_TEACHER",
+    "OracleTeacher",
+    "PlannerTeacher",
+    "Teacher",
+    "TeacherStats",
+    "agreement",
+    "make_teacher",
+    "margin_loss",
+]

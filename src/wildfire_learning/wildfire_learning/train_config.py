@@ -35,8 +35,9 @@ from wildfire_sim.episode import EPISODE_DEFAULTS
 
 EVAL_SEED_BASE = VALIDATION_SEED_BASE
 """Evaluation seeds during training start here; training seeds stay below."""
-TEACHERS = ("none", *PLANNER_POLICIES)
-"""Values of ``--teacher``: no teacher, or a receding-horizon planner that labels states."""
+TEACHERS = ("none", *PLANNER_POLICIES, "oracle")
+"""Values of ``--teacher``: no teacher, or a planner that labels states (a receding-horizon
+baseline, or the clairvoyant ``oracle``)."""
 PRE_EXTENSION_VALUES: dict[str, Any] = {
     "n_step": 1,
     "reward_scale": 1.0,
@@ -239,6 +240,11 @@ class TrainConfig:
             raise LearningError("epsilon: expected 0 <= end_e <= start_e <= 1")
         if self.teacher not in TEACHERS:
             raise LearningError(f"teacher: expected one of {TEACHERS}, got {self.teacher!r}")
+        if self.teacher == "oracle" and (self.sensor != "disc" or not self.comm_model().ideal):
+            raise LearningError(
+                "teacher: oracle plans on the paper's world only (expected --sensor disc and "
+                f"--comm ideal, got {self.sensor} and {self.comm})"
+            )
         if not (self.teacher_weight > 0 and self.teacher_margin > 0):
             raise LearningError("teacher: expected teacher_weight > 0 and teacher_margin > 0")
         if not (0.0 <= self.priority_alpha <= 1.0 and 0.0 <= self.priority_beta <= 1.0):
