@@ -32,7 +32,7 @@ import numpy as np
 import torch
 
 from wildfire_agent.dynamics import AircraftState
-from wildfire_agent.policy_names import PLANNER_POLICIES, planner_config
+from wildfire_agent.policy_names import ORACLE_POLICY, PLANNER_POLICIES, planner_config
 from wildfire_agent.receding_horizon import plan
 from wildfire_learning.env import WildfireVecEnv
 from wildfire_learning.oracle import (
@@ -45,9 +45,6 @@ from wildfire_learning.oracle import (
 from wildfire_learning.oracle_kernels import NEVER
 from wildfire_learning.vec_policies import flatten_aircraft, map_index, others_of
 from wildfire_sim.seeding import Stream, generator
-
-ORACLE_TEACHER = "oracle"
-"""The ``--teacher`` value of :class:`OracleTeacher`."""
 
 
 class PlannerTeacher:
@@ -152,7 +149,7 @@ Teacher = PlannerTeacher | OracleTeacher
 
 def make_teacher(name: str, rng: np.random.Generator) -> Teacher:
     """The teacher ``--teacher name`` names (not ``none``)."""
-    if name == ORACLE_TEACHER:
+    if name == ORACLE_POLICY:
         return OracleTeacher()
     return PlannerTeacher(name, rng)
 
@@ -190,7 +187,6 @@ def margin_loss(q: torch.Tensor, labels: torch.Tensor, margin: float) -> torch.T
 
 
 __all__ = [
-    "ORACLE_TEACHER",
     "OracleTeacher",
     "PlannerTeacher",
     "Teacher",

@@ -25,7 +25,7 @@ from torch import nn
 
 from wildfire_agent.approaches import APPROACHES, IMAGE_SHAPES, image_shape
 from wildfire_agent.pairwise import STATE_SIZE
-from wildfire_agent.policy_names import PLANNER_POLICIES
+from wildfire_agent.policy_names import ORACLE_POLICY, PLANNER_POLICIES
 from wildfire_belief.radio import CommError, CommModel
 from wildfire_learning.architectures import ARCHITECTURES, build_q_network, network_name
 from wildfire_learning.env import EnvConfig
@@ -35,7 +35,7 @@ from wildfire_sim.episode import EPISODE_DEFAULTS
 
 EVAL_SEED_BASE = VALIDATION_SEED_BASE
 """Evaluation seeds during training start here; training seeds stay below."""
-TEACHERS = ("none", *PLANNER_POLICIES, "oracle")
+TEACHERS = ("none", *PLANNER_POLICIES, ORACLE_POLICY)
 """Values of ``--teacher``: no teacher, or a planner that labels states (a receding-horizon
 baseline, or the clairvoyant ``oracle``)."""
 PRE_EXTENSION_VALUES: dict[str, Any] = {
@@ -240,7 +240,7 @@ class TrainConfig:
             raise LearningError("epsilon: expected 0 <= end_e <= start_e <= 1")
         if self.teacher not in TEACHERS:
             raise LearningError(f"teacher: expected one of {TEACHERS}, got {self.teacher!r}")
-        if self.teacher == "oracle" and (self.sensor != "disc" or not self.comm_model().ideal):
+        if self.teacher == ORACLE_POLICY and (self.sensor != "disc" or not self.comm_model().ideal):
             raise LearningError(
                 "teacher: oracle plans on the paper's world only (expected --sensor disc and "
                 f"--comm ideal, got {self.sensor} and {self.comm})"
