@@ -238,6 +238,15 @@ Pose = tuple[float, float, float, int]
 """One aircraft as the compiled kernels take it: x, y, heading, bank level."""
 
 
+def poses(state: AircraftState, aircraft: list[int]) -> dict[int, Pose]:
+    """The kernels' poses of ``aircraft`` of the team ``state`` (N,)."""
+    return {
+        k: (float(state.x_m[k]), float(state.y_m[k]), float(state.heading_rad[k]),
+            int(state.bank_steps[k]))
+        for k in aircraft
+    }  # fmt: skip
+
+
 def replan_team(
     future: KnownFuture,
     config: OracleConfig,
@@ -304,15 +313,10 @@ def _receding_horizon(
     plans the search shifts) in receding horizon, the cells of ``covered`` (the fixed
     aircraft's whole flights) counted as covered; returns the (N, L) actions flown. Past a
     plan's horizon the bank it ends on is held, or with ``keep_tail`` the actions kept."""
-    start = future.start
     length = future.decisions
     tau = config.replan_every
     rngs = {k: generator(future.seed, Stream.AIRCRAFT, k) for k in free}
-    state = {
-        k: (float(start.x_m[k]), float(start.y_m[k]), float(start.heading_rad[k]),
-            int(start.bank_steps[k]))
-        for k in free
-    }  # fmt: skip
+    state = poses(future.start, free)
     for d0 in range(0, length, tau):
         replan_team(future, config, plan, state, free, covered, d0, horizon, rngs, keep_tail)
         # Commit the next tau decisions, flown and scored exactly.
@@ -487,6 +491,7 @@ __all__ = [
     "fly",
     "known_future",
     "plan_episode",
+    "poses",
     "refine",
     "replan_team",
 ]

@@ -40,6 +40,7 @@ from wildfire_learning.oracle import (
     OracleConfig,
     first_plan,
     known_future,
+    poses,
     replan_team,
 )
 from wildfire_learning.oracle_kernels import NEVER
@@ -125,17 +126,11 @@ class OracleTeacher:
         believed = env.believed().reshape(env.num_envs, -1)
         for row, e in enumerate(np.asarray(envs, dtype=np.int64).tolist()):
             episode = self._episode(env, e)
-            d0 = int(env.decisions[e])
-            if d0 >= episode.future.decisions:
-                continue
+            d0 = int(env.decisions[e])  # a running episode: d0 < its decisions
             # A cell the team believes burning has been scored (under ideal links and disc
             # sensing nothing else makes it so); one that can still score is not.
             covered = believed[e] & (episode.future.start_step < NEVER)
-            state = {
-                k: (float(env.aircraft.x_m[e, k]), float(env.aircraft.y_m[e, k]),
-                    float(env.aircraft.heading_rad[e, k]), int(env.aircraft.bank_steps[e, k]))
-                for k in range(n)
-            }  # fmt: skip
+            state = poses(AircraftState(*(field[e] for field in env.aircraft)), list(range(n)))
             replan_team(
                 episode.future, self.config, episode.plan, state, list(range(n)), covered, d0,
                 self.config.horizon, episode.rngs,
