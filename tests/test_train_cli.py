@@ -296,6 +296,37 @@ def test_interrupted_run_checkpoints_and_resumes(tmp_path: Path) -> None:
     assert resumed["iterations"] == saved + 2
 
 
+def test_a_stop_signal_inside_a_compiled_kernel_still_checkpoints(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A stop signal whose handler runs inside a numba kernel's call (the kernel boxes its
+    result in Python) surfaces as ``SystemError`` caused by the ``KeyboardInterrupt``, as it
+    did in an oracle-taught run. The run must save and stop as it does for Ctrl-C."""
+    from wildfire_learning import dqn
+
+    calls = 0
+    act = dqn.greedy_actions
+
+    def interrupted_in_a_kernel(*args: object, **kwargs: object) -> np.ndarray:
+        nonlocal calls
+        calls += 1
+        if calls == 4:
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt as interrupt:
+                raise SystemError(
+                    "CPUDispatcher(<function search>) returned a result with an exception set"
+                ) from interrupt
+        return act(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(dqn, "greedy_actions", interrupted_in_a_kernel)
+    run_dir = tmp_path / "run"
+    args = ["--approach", "obs", *TINY, "--iterations", "1000", "--run-dir", str(run_dir)]
+    assert cli_main(["train", *args, "--json"]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    assert load_checkpoint(run_dir)["state"]["iterations"] > 0
+
+
 def test_a_resumed_run_keeps_the_behaviour_it_was_started_with() -> None:
     import argparse
     from dataclasses import fields

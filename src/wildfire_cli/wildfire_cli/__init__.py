@@ -16,6 +16,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from wildfire_cli.common import USER_ERRORS, ArgumentParser
+from wildfire_msgs_py.stop_signals import stopped
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -76,7 +77,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except USER_ERRORS as error:
         print(f"wildfire {args.command}: error: {error}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, SystemError) as error:
+        if not stopped(error):
+            raise
         print(f"wildfire {args.command}: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:

@@ -127,8 +127,8 @@ def add_parser(subparsers: Any) -> None:
 
 def run_record(args: argparse.Namespace) -> int:
     """``bag record``: finalizes the bag on Ctrl-C, SIGTERM or ``--duration``."""
+    from wildfire_msgs_py.stop_signals import interrupt_on_stop_signals
     from wildfire_ros.bag import BULKY_TOPICS, BagRecorder
-    from wildfire_ros.node_support import interrupt_on_stop_signals
     from wildfire_ros.runtime import rclpy
 
     if args.all == bool(args.topics):
@@ -177,8 +177,8 @@ def run_record(args: argparse.Namespace) -> int:
 def run_play(args: argparse.Namespace) -> int:
     """``bag play``: Ctrl-C stops it cleanly (exit status 0, as ros2 bag play)."""
     from wildfire_cli.progress import progress_bar
+    from wildfire_msgs_py.stop_signals import interrupt_on_stop_signals
     from wildfire_ros.bag_play import BagPlayer
-    from wildfire_ros.node_support import interrupt_on_stop_signals
     from wildfire_ros.runtime import rclpy
 
     topics = None if args.topics is None else [_topic_name(t) for t in args.topics]

@@ -22,7 +22,7 @@ def ros_node(name: str) -> Iterator[Any]:
     SIGTERM ends the command as Ctrl-C does (one line, no traceback): left to rclpy, it
     invalidates the context under the command's next graph query.
     """
-    from wildfire_ros.node_support import interrupt_on_stop_signals
+    from wildfire_msgs_py.stop_signals import interrupt_on_stop_signals
     from wildfire_ros.runtime import Node, rclpy
 
     interrupt_on_stop_signals()

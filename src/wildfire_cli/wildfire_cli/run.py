@@ -361,7 +361,7 @@ def network_faults(launcher: Any) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     from wildfire_bringup.launcher import Launcher, NodeFailure
-    from wildfire_ros.node_support import interrupt_on_stop_signals
+    from wildfire_msgs_py.stop_signals import interrupt_on_stop_signals
     from wildfire_testbed.hosts import HostNetworkError
 
     if args.png is not None and not os.access(args.png.resolve().parent, os.W_OK):

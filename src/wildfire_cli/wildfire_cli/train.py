@@ -34,7 +34,7 @@ from wildfire_learning.device import resolve_device
 from wildfire_learning.dqn import train
 from wildfire_learning.train_config import RunOptions, TrainConfig, resolve_config
 from wildfire_learning.train_status import Status
-from wildfire_ros.node_support import interrupt_on_stop_signals
+from wildfire_msgs_py.stop_signals import interrupt_on_stop_signals
 
 
 def add_config_options(parser: argparse.ArgumentParser) -> None:

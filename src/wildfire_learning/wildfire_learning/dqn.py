@@ -88,6 +88,7 @@ from wildfire_learning.train_config import (
 )
 from wildfire_learning.train_status import Session, Status, max_rss_mb, report_status
 from wildfire_learning.validation import evaluate_and_export
+from wildfire_msgs_py.stop_signals import stopped
 
 
 @dataclass
@@ -300,8 +301,11 @@ def train(
                         )
                 if episodes is not None or state.iterations % 10 == 0:  # offline: every 10th pass
                     report_status(report, state, config, phase, epsilon)
-        except KeyboardInterrupt:
-            # Ctrl-C or SIGTERM: keep what was learnt, `--resume` continues from here.
+        except (KeyboardInterrupt, SystemError) as error:
+            if not stopped(error):
+                raise
+            # Ctrl-C or SIGTERM (also one that landed inside a compiled kernel): keep what
+            # was learnt, `--resume` continues from here.
             state.wall_time_s = session.wall_time_s()
             save_checkpoint(
                 run_dir, config, state, q_network, target_network, optimizer, replay, rng

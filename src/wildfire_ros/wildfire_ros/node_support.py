@@ -25,6 +25,7 @@ from typing import Any
 from wildfire_msgs_py.contract import QosSpec, TopicSpec
 from wildfire_msgs_py.errors import ParameterError, WildfireRosError
 from wildfire_msgs_py.input_guard import InputGuard
+from wildfire_msgs_py.stop_signals import interrupt_on_stop_signals, stopped
 
 EXIT_USER_ERROR = 2
 
@@ -172,22 +173,6 @@ def contract_subscription(
     )
 
 
-def _raise_keyboard_interrupt(_signum: int, _frame: Any) -> None:
-    raise KeyboardInterrupt
-
-
-def interrupt_on_stop_signals() -> None:
-    """Turn SIGINT and SIGTERM into ``KeyboardInterrupt``: ``kill``, ``timeout``, a launcher
-    or ``docker stop`` then end a node, a recording or a training run the way Ctrl-C does.
-
-    SIGINT is set explicitly too: a process started in the background by a non-interactive
-    shell inherits SIGINT *ignored*, and Python keeps it so. Such a recorder would never see
-    the launcher's SIGINT (rclpy, likewise, installs its own handlers).
-    """
-    signal.signal(signal.SIGINT, _raise_keyboard_interrupt)
-    signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
-
-
 def run_node(
     build: Callable[[], Any],
     program: str,
@@ -233,8 +218,11 @@ def run_node(
     except errors as error:
         print(f"{program}: error: {_first_line(error)}", file=sys.stderr)
         status = EXIT_USER_ERROR
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
+    except (KeyboardInterrupt, SystemError) as error:
+        if not stopped(error):
+            raise
     finally:
         # A second signal during clean-up must not turn into a traceback.
         signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -258,7 +246,6 @@ __all__ = [
     "contract_publisher",
     "contract_subscription",
     "declare_parameters",
-    "interrupt_on_stop_signals",
     "reject_unknown_parameters",
     "run_node",
 ]

@@ -29,11 +29,8 @@ from typing import Any
 import numpy as np
 
 from wildfire_msgs_py import codecs, contract, radio_codec, system_codecs
-from wildfire_ros.node_support import (
-    contract_publisher,
-    contract_subscription,
-    interrupt_on_stop_signals,
-)
+from wildfire_msgs_py.stop_signals import interrupt_on_stop_signals
+from wildfire_ros.node_support import contract_publisher, contract_subscription
 from wildfire_ros.runtime import Node, SingleThreadedExecutor, rclpy
 
 TICK_NS = contract.DECISION_PERIOD_NS
