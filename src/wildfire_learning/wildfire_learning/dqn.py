@@ -152,7 +152,7 @@ def td_update(
     if teacher_weight > 0:
         pull = margin_loss(q, batch.labels, config.teacher_margin)
         loss = loss + teacher_weight * pull
-        teacher = TeacherStats(float(pull), teacher_weight, agreement(q, batch.labels))
+        teacher = TeacherStats(pull.item(), teacher_weight, agreement(q, batch.labels))
     optimizer.zero_grad()
     loss.backward()
     nn.utils.clip_grad_norm_(q_network.parameters(), config.max_grad_norm)
