@@ -5,9 +5,11 @@ signals into ``KeyboardInterrupt`` and catches it to end cleanly: a node destroy
 recording closes its bag, a training run writes its checkpoint.
 
 One catch: the handler runs at the next Python instruction, and a compiled (numba) kernel
-runs Python in the middle of its call (it boxes the arrays it returns). A signal that lands
-there raises inside the kernel's call, and CPython reports it as ``SystemError: ...returned a
-result with an exception set`` with the ``KeyboardInterrupt`` as its cause. :func:`stopped`
+can run Python in the middle of its call (numba's ``_numba_unpickle``, which reads back the
+constants it pickled, for instance the type of an array it returns). A signal handled there
+raises inside the kernel's call, and CPython reports it as ``SystemError: ...returned a result
+with an exception set`` with the ``KeyboardInterrupt`` as its cause (seen in a training run
+whose teacher spends most of its time in the oracle's search kernel). :func:`stopped`
 recognises both forms, so the clean ending does not depend on where the signal landed.
 """
 
