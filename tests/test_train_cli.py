@@ -233,6 +233,14 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFi
             "a obs/paper policy, this run trains obs/paper+dueling",
         ),
         (["--resume", "--run-dir", str(run_dir), "--dueling"], "asked obs/paper+dueling"),
+        (["--reward", "score"], "--reward"),
+        (
+            [
+                *("--reward", "belief", "--from-bag", str(tmp_path), "--iterations", "2"),
+                *("--run-dir", str(tmp_path / "r")),
+            ],
+            "expected --reward approach, got belief",
+        ),
         (
             [
                 "--approach",
@@ -369,3 +377,33 @@ def test_init_from_starts_at_the_policy_weights_and_says_so(tmp_path: Path) -> N
     resumed = json.loads((second / "obs_policy.json").read_text())
     assert resumed["iterations"] == 2
     assert resumed["initialised_from"] == card["initialised_from"]
+
+
+def test_reward_option_trains_the_observation_network_on_the_team_reward() -> None:
+    from wildfire_agent.rewards import proximity_sum
+    from wildfire_learning.env import WildfireVecEnv
+    from wildfire_learning.train_config import TrainConfig
+
+    own = TrainConfig(approach="obs").env_config()
+    team = TrainConfig(approach="obs", reward="belief").env_config()
+    assert (own.observation, own.reward) == ("obs", "obs")
+    assert (team.observation, team.reward) == ("obs", "belief")
+    envs = [WildfireVecEnv(config, 2) for config in (own, team)]
+    for env in envs:
+        env.reset([5, 6])
+    rng = np.random.default_rng(0)
+    seen = 0.0
+    for _ in range(60):
+        actions = rng.integers(0, 2, size=(2, 2))
+        mine, ours = (env.step(actions) for env in envs)
+        # The same flight and images; only the reward differs: the team's new cells, shared,
+        # less the proximity penalty.
+        np.testing.assert_array_equal(mine.observations["image"], ours.observations["image"])
+        np.testing.assert_array_equal(mine.team_reward, ours.team_reward)
+        a = envs[1].aircraft
+        penalty = team.belief_proximity_weight * proximity_sum(
+            a.x_m, a.y_m, team.obs_weights.proximity_scale_m
+        )
+        np.testing.assert_allclose(ours.rewards, ours.team_reward[:, None] - penalty)
+        seen += float(ours.team_reward.sum())
+    assert seen > 0

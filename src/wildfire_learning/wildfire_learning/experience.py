@@ -58,6 +58,13 @@ def bag_sequences(config: TrainConfig, bag_dirs: tuple[Path, ...]) -> list[Rebui
     # The bag reader (rosbags) loads only for runs that read bags.
     from wildfire_learning.bag_transitions import transitions_from_bags
 
+    if config.reward_kind() != config.approach:
+        # The rebuild scores a bag with the approach's own reward (bag_transitions.py).
+        raise LearningError(
+            f"--from-bag: the bags rebuild the {config.approach} approach's own reward "
+            f"(expected --reward approach, got {config.reward})"
+        )
+
     sequences = transitions_from_bags(bag_dirs, config.approach, config.env_config())
     if sum(len(s.actions) for s in sequences) == 0:
         raise LearningError("--from-bag: the bags hold no complete decision to learn from")

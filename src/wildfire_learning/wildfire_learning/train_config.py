@@ -38,6 +38,9 @@ EVAL_SEED_BASE = VALIDATION_SEED_BASE
 TEACHERS = ("none", *PLANNER_POLICIES, ORACLE_POLICY)
 """Values of ``--teacher``: no teacher, or a planner that labels states (a receding-horizon
 baseline, or the clairvoyant ``oracle``)."""
+REWARDS = ("approach", *APPROACHES)
+"""Values of ``--reward``: the approach's own reward, or either approach's by name (the
+observation network trained on the team reward, for one)."""
 PRE_EXTENSION_VALUES: dict[str, Any] = {
     "n_step": 1,
     "reward_scale": 1.0,
@@ -75,6 +78,12 @@ class TrainConfig:
         "obs",
         "``obs`` (sensor image, observation-based reward) or ``belief`` (ego belief, team reward).",
         choices=APPROACHES,
+    )
+    reward: str = hyperparameter(
+        "approach",
+        "Training reward: the approach's own (``approach``), or ``obs`` (observation-based) / "
+        "``belief`` (team reward - proximity) whatever the network sees.",
+        choices=REWARDS,
     )
     arch: str = hyperparameter(
         "paper",
@@ -238,6 +247,8 @@ class TrainConfig:
             raise LearningError(f"learning_rate: expected > 0, got {self.learning_rate}")
         if not 0.0 <= self.end_e <= self.start_e <= 1.0:
             raise LearningError("epsilon: expected 0 <= end_e <= start_e <= 1")
+        if self.reward not in REWARDS:
+            raise LearningError(f"reward: expected one of {REWARDS}, got {self.reward!r}")
         if self.teacher not in TEACHERS:
             raise LearningError(f"teacher: expected one of {TEACHERS}, got {self.teacher!r}")
         if self.teacher == ORACLE_POLICY and (self.sensor != "disc" or not self.comm_model().ideal):
@@ -267,7 +278,7 @@ class TrainConfig:
         return EnvConfig(
             n_aircraft=self.n_aircraft,
             observation=self.approach,
-            reward=self.approach,
+            reward=self.reward_kind(),
             shapes=tuple(self.shapes),
             max_wind=self.max_wind,
             max_duration_s=self.episode_seconds,
@@ -276,6 +287,10 @@ class TrainConfig:
             pixel_error=self.pixel_error,
             wind_filter=self.wind_filter,
         ).validate()
+
+    def reward_kind(self) -> str:
+        """The approach whose reward the run trains on (``obs`` or ``belief``)."""
+        return self.approach if self.reward == "approach" else self.reward
 
     def comm_model(self) -> CommModel:
         """The radio model of ``comm``, or :class:`LearningError` naming it."""
@@ -407,6 +422,7 @@ def resolve_config(saved: Mapping[str, Any] | None, given: Mapping[str, Any]) ->
 __all__ = [
     "EVAL_SEED_BASE",
     "PRE_EXTENSION_VALUES",
+    "REWARDS",
     "TEACHERS",
     "RunOptions",
     "TrainConfig",
