@@ -102,6 +102,7 @@ SYSTEM_MODULES = {"test_multihost.py", "test_network_faults.py", "test_network_i
 """Modules whose tests build network namespaces or start systems without the ``dds`` marker."""
 
 
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Put every test that starts a multi-process system (marker ``dds``, or a module of
     ``SYSTEM_MODULES``) in one xdist group: under ``scripts/test.sh``'s two workers, systems
@@ -109,7 +110,13 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
     Two systems at once on two cores pushed tests past their margins (measured: a recorder
     exiting with a traceback from rclpy's task finaliser, a lockstep run on four virtual hosts
-    diverging from eval), so parallelism is kept where it is harmless."""
+    diverging from eval), so parallelism is kept where it is harmless.
+
+    ``tryfirst``: an xdist worker reads the groups in its own ``pytest_collection_modifyitems``,
+    registered after this conftest and so called before it unless this one goes first. (And
+    pytest 9.2 drops the group xdist 3.8 writes into the node id, requirements.txt.) Both
+    together let two systems run at once: two floods side by side in CI, a 15 s lockstep
+    flight past its 270 s limit (32 s alone)."""
     for item in items:
         if item.get_closest_marker("xdist_group") is not None:
             continue  # a test that chose its group itself
