@@ -380,7 +380,7 @@ def test_init_from_starts_at_the_policy_weights_and_says_so(tmp_path: Path) -> N
 
 
 def test_reward_option_trains_the_observation_network_on_the_team_reward() -> None:
-    from wildfire_agent.rewards import proximity_sum
+    from wildfire_agent.approaches import belief_rewards
     from wildfire_learning.env import WildfireVecEnv
     from wildfire_learning.train_config import TrainConfig
 
@@ -400,10 +400,9 @@ def test_reward_option_trains_the_observation_network_on_the_team_reward() -> No
         # less the proximity penalty.
         np.testing.assert_array_equal(mine.observations["image"], ours.observations["image"])
         np.testing.assert_array_equal(mine.team_reward, ours.team_reward)
-        a = envs[1].aircraft
-        penalty = team.belief_proximity_weight * proximity_sum(
-            a.x_m, a.y_m, team.obs_weights.proximity_scale_m
+        expected = belief_rewards(
+            ours.team_reward, envs[1].aircraft, team.obs_weights, team.belief_proximity_weight
         )
-        np.testing.assert_allclose(ours.rewards, ours.team_reward[:, None] - penalty)
+        np.testing.assert_allclose(ours.rewards, expected)
         seen += float(ours.team_reward.sum())
     assert seen > 0

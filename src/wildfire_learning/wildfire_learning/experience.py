@@ -55,15 +55,14 @@ def bag_sequences(config: TrainConfig, bag_dirs: tuple[Path, ...]) -> list[Rebui
     """Transitions rebuilt from ``bag_dirs`` (none without bags)."""
     if not bag_dirs:
         return []
-    # The bag reader (rosbags) loads only for runs that read bags.
-    from wildfire_learning.bag_transitions import transitions_from_bags
-
     if config.reward_kind() != config.approach:
         # The rebuild scores a bag with the approach's own reward (bag_transitions.py).
         raise LearningError(
             f"--from-bag: the bags rebuild the {config.approach} approach's own reward "
             f"(expected --reward approach, got {config.reward})"
         )
+    # The bag reader (rosbags) loads only for runs that read bags.
+    from wildfire_learning.bag_transitions import transitions_from_bags
 
     sequences = transitions_from_bags(bag_dirs, config.approach, config.env_config())
     if sum(len(s.actions) for s in sequences) == 0:
