@@ -234,6 +234,7 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFi
         ),
         (["--resume", "--run-dir", str(run_dir), "--dueling"], "asked obs/paper+dueling"),
         (["--reward", "score"], "--reward"),
+        (["--time-limit", "0"], "expected a number > 0"),
         (
             [
                 *("--reward", "belief", "--from-bag", str(tmp_path), "--iterations", "2"),
@@ -302,6 +303,23 @@ def test_interrupted_run_checkpoints_and_resumes(tmp_path: Path) -> None:
     assert 0 < saved < 100000
     resumed = run_json("--resume", "--run-dir", str(run_dir), "--iterations", str(saved + 2))
     assert resumed["iterations"] == saved + 2
+
+
+def test_time_limit_ends_learning_then_evaluates_exports_and_resumes(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    limited = run_json(
+        *("--approach", "obs", *TINY, "--iterations", "100000", "--time-limit", "6"),
+        *("--run-dir", str(run_dir)),
+    )
+    done = limited["iterations"]
+    assert done < 100000  # stopped by the clock, not by the target
+    # ... and then finished as a run does: evaluated at the iteration it reached, checkpointed
+    # and exported with a card that says where it stopped.
+    assert [r["iteration"] for r in limited["learning_curve"]] == [done]
+    assert load_checkpoint(run_dir)["state"]["iterations"] == done
+    assert json.loads((run_dir / "obs_policy.json").read_text())["iterations"] == done
+    resumed = run_json("--resume", "--run-dir", str(run_dir), "--iterations", str(done + 2))
+    assert resumed["iterations"] == done + 2
 
 
 def test_a_stop_signal_inside_a_compiled_kernel_still_checkpoints(

@@ -114,6 +114,13 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         metavar="SECONDS",
         help="when stderr is not a terminal (nohup), print a status line this often (default: 60)",
     )
+    parser.add_argument(
+        "--time-limit",
+        type=positive_float,
+        metavar="SECONDS",
+        help="stop learning after this much wall time (the prefill included), then evaluate "
+        "and export as at the end; --resume carries on towards --iterations",
+    )
     add_device_argument(parser, "auto", "the networks and replay mini-batches")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
@@ -179,6 +186,7 @@ def run(args: argparse.Namespace) -> int:
         offline=bool(args.from_bag) and not args.online,
         init_policy=args.init_from,
         device=str(device),
+        time_limit_s=args.time_limit,
     )
     # The run creates its own directory, so an --out inside it is fine before it exists.
     inside_run_dir = out.parent.resolve() == run_dir.resolve()

@@ -51,6 +51,11 @@ Decisions beyond the paper (documented here, reported in the card):
   mini-batches; the environments are numpy on the CPU, and the replay stays in host memory
   (uint8 frames, copied per mini-batch). The device is not a hyperparameter: a run may resume
   on another one (the card records the last). The exported policy is always a CPU module.
+* ``RunOptions.time_limit_s`` (``--time-limit``) ends a session's learning at a wall-clock
+  budget instead of only at its target, then evaluates, checkpoints and exports as at the
+  end: a run fits a borrowed machine's slot (``scripts/gpu_train.sh``) without a kill, and
+  ``--resume`` carries it on. Not a hyperparameter either: the network it stops at depends
+  on the machine's speed, and the card's iterations and wall time say where it stopped.
 """
 
 from __future__ import annotations
@@ -231,7 +236,7 @@ def train(
                 state.iterations < total_iterations
                 if by_iterations
                 else state.samples < config.total_samples
-            ):
+            ) and not session.out_of_time(options.time_limit_s):
                 if episodes is None:
                     epsilon, phase, owed = 0.0, "training (offline)", state.iterations + 1
                 else:

@@ -347,6 +347,9 @@ class RunOptions:
     """Start from the weights of this exported policy (fine-tuning) instead of random ones."""
     device: str = "cpu"
     """Torch device of the networks and mini-batches (resolved: ``cpu``, ``cuda``, ``cuda:1``)."""
+    time_limit_s: float | None = None
+    """Stop this session's learning after this much wall time (the prefill included), then
+    evaluate and export as at the end; ``--resume`` carries on towards the run's target."""
 
 
 @dataclass

@@ -70,6 +70,10 @@ class Session:
         """Wall time of the run so far, earlier sessions included."""
         return self.wall_before_s + time.perf_counter() - self.start
 
+    def out_of_time(self, limit_s: float | None) -> bool:
+        """Whether this session has used up its wall-time limit (never, without one)."""
+        return limit_s is not None and time.perf_counter() - self.start >= limit_s
+
     def start_training(self, state: TrainState) -> None:
         """Mark the end of the prefill (once): training-phase rates count from here."""
         if self.train_start is not None:
