@@ -135,7 +135,11 @@ def test_limited_links_fly_on_without_the_ground_station_under_a_flood(
     pid mid-flight, the run flies on and still equals eval. Meanwhile radio messages that lie
     (another aircraft's index, NaN poses, windows off the pose, truncated bytes, catch-up
     replies that do not inflate, future ticks) are dropped and counted."""
-    comm, seed, duration = "range=300,loss=0.2", 2000012, 60.0
+    # Under limited links the aggregator is no reporter, so the lockstep flight does not wait
+    # for it, and it starts up to seconds after tick 0. A 60 s flight (~10 s of wall time)
+    # once ended before the kill below, which then found no flight left to fly on (CI, loaded
+    # machine): 120 s leaves the kill well inside the flight.
+    comm, seed, duration = "range=300,loss=0.2", 2000012, 120.0
     logs = tmp_path / "logs"
     command = [WILDFIRE, "run", "--policy", "rh", "--comm", comm, "--seed", str(seed),
                "--duration", str(duration), "--fast", "--json", "--log-dir", str(logs)]  # fmt: skip
