@@ -13,8 +13,11 @@ from typing import Any
 import numpy as np
 import pytest
 
+from wildfire_agent.policy_names import ORACLE_POLICY, SHIPPED_POLICIES
+from wildfire_learning import results_report
 from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
+from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES
 from wildfire_learning.results_report import Scenario, results_markdown, table_cells
 from wildfire_learning.vec_policies import make_vec_policy
 
@@ -188,3 +191,24 @@ def test_report_gives_every_policy_as_a_fraction_of_the_oracle(tmp_path: Path) -
     assert cells["oracle"]["oracle_fraction"] == 1.0
     markdown = (out / "results.md").read_text()
     assert f"{cells['rh']['oracle_fraction']:.0%} of oracle" in markdown
+
+
+def test_an_oracle_result_is_keyed_by_its_incumbents_files(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The bound starts from the shipped networks' flights: retraining one makes its stored
+    results stale, so the key changes with any of their files (and no other policy's does)."""
+    files = {name: tmp_path / f"{name}.pt" for name in SHIPPED_POLICIES}
+    for name, path in files.items():
+        path.write_bytes(name.encode())
+    monkeypatch.setattr(results_report, "resolve_policy_path", files.__getitem__)
+
+    def key(policy: str) -> dict[str, Any]:
+        return results_report.fingerprint(policy, None, [1, 2], 0.8, 400.0)
+
+    before, planner = key(ORACLE_POLICY), key("rh")
+    assert set(before["incumbents_sha256"]) == set(INCUMBENT_POLICIES) & set(SHIPPED_POLICIES)
+    assert "incumbents_sha256" not in planner
+    files["belief"].write_bytes(b"retrained")
+    assert key(ORACLE_POLICY) != before
+    assert key("rh") == planner

@@ -17,7 +17,6 @@ them rests on (test seeds are never used for it).
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -29,7 +28,7 @@ from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import EvaluationSummary
 from wildfire_learning.export import _save_with_card
-from wildfire_learning.model_card import EVALUATION_PROTOCOL
+from wildfire_learning.model_card import EVALUATION_PROTOCOL, policy_sha256
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.summary_stats import standard_error
 from wildfire_learning.train_config import EVAL_SEED_BASE
@@ -65,10 +64,6 @@ class QEnsemble(nn.Module):
         return total / count
 
 
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
 def member_labels(paths: Sequence[Path]) -> list[str]:
     """How the card names each member: its file name, or its path where members share a
     name (two runs' ``obs_policy.pt``), so that no member's comparison hides another's."""
@@ -82,7 +77,7 @@ def ensemble_card(cards: list[dict[str, Any]], paths: list[Path]) -> dict[str, A
     cost summed over the members (``iterations``, ``samples``, ``wall_time_s``)."""
     first = cards[0]
     members = [
-        {"file": label, "sha256": _sha256(path)}
+        {"file": label, "sha256": policy_sha256(path)}
         | {key: card[key] for key in MEMBER_CARD_KEYS if key in card}
         for label, path, card in zip(member_labels(paths), paths, cards, strict=True)
     ]

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 from dataclasses import asdict
 from pathlib import Path
@@ -18,6 +19,12 @@ from wildfire_learning.train_config import RunOptions, TrainConfig, TrainState
 
 EVALUATION_PROTOCOL = "team belief reward (docs/model.md, Evaluation), greedy network, batched"
 """How a card's ``evaluation`` was scored (training's validation, or an ensemble's)."""
+
+
+def policy_sha256(path: Path) -> str:
+    """The SHA-256 of a policy file: how an ensemble's card and a stored evaluation name the
+    exact weights they were made from."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def init_summary(path: Path) -> dict[str, Any]:
@@ -80,4 +87,4 @@ def policy_card(
     }
 
 
-__all__ = ["EVALUATION_PROTOCOL", "init_summary", "policy_card"]
+__all__ = ["EVALUATION_PROTOCOL", "init_summary", "policy_card", "policy_sha256"]

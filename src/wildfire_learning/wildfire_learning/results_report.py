@@ -5,10 +5,11 @@ See docs/model.md, Evaluation.
 Every (policy, scenario) pair is one :func:`~wildfire_learning.evaluate.evaluate` run on
 the same seeds, so a row compares policies episode by episode. Each result is kept as JSON
 in the report's ``evaluations/`` folder together with what produced it (the seeds, wind bound,
-flight limit and, for a Q-network, the SHA-256 of its file): a later report reuses it while
-those are unchanged, so adding a scenario or a policy flies only what is new. Results of
-``rh``, ``rh-paper`` and ``random`` are keyed by their settings only; pass ``fresh`` after
-changing their code.
+flight limit and, for a Q-network, the SHA-256 of its file; for ``oracle``, those of the
+shipped networks whose flights are its incumbents): a later report reuses it while those are
+unchanged, so adding a scenario or a policy flies only what is new. Results of ``rh``,
+``rh-paper`` and ``random`` are keyed by their settings only; pass ``fresh`` after changing
+their code.
 
 The report itself is a Markdown table (mean +- standard error, ratio to our receding horizon
 ``rh``, fraction of the score ceiling), the paper's ratios beside ours, and a bar chart. The
@@ -18,7 +19,6 @@ paper's receding horizon is uncoordinated, so its ratios are set beside ours to 
 
 from __future__ import annotations
 
-import hashlib
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,9 +32,13 @@ from wildfire_agent.policy_names import (
     OBS_CAMERA_POLICY,
     ORACLE_POLICY,
     RADIO_POLICY,
+    SHIPPED_POLICIES,
+    resolve_policy_path,
 )
 from wildfire_belief.radio import IDEAL, CommModel
 from wildfire_learning.errors import LearningError
+from wildfire_learning.model_card import policy_sha256
+from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES
 from wildfire_learning.summary_stats import standard_error
 from wildfire_sim.shapes import Shape
 
@@ -149,7 +153,15 @@ def fingerprint(
     if wind_filter:
         identity["wind_filter"] = True
     if policy_file is not None:
-        identity["policy_sha256"] = hashlib.sha256(policy_file.read_bytes()).hexdigest()
+        identity["policy_sha256"] = policy_sha256(policy_file)
+    if policy == ORACLE_POLICY:
+        # The bound starts from the best flight of the shipped policies on each episode, so a
+        # new shipped network can raise it: its stored results hold only with the same files.
+        identity["incumbents_sha256"] = {
+            name: policy_sha256(resolve_policy_path(name))
+            for name in INCUMBENT_POLICIES
+            if name in SHIPPED_POLICIES
+        }
     return identity
 
 
