@@ -15,7 +15,9 @@ from wildfire_agent.dynamics import MAX_BANK_STEPS
 from wildfire_belief import belief_kernels
 from wildfire_belief.sensors import CAMERA_WINDOW, NUM_CAMERAS
 from wildfire_belief.visits import cell_offset_m, within_radius
-from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
+from wildfire_sim.grid import CELL_SIZE_M, PAPER_MAP
+
+GRID_SIZE = PAPER_MAP.rows
 
 
 def first_true(holds: Callable[[np.ndarray], np.ndarray], guess: np.ndarray, side: int):
@@ -131,6 +133,7 @@ def test_window_reports_equal_the_flips_of_each_aircraft() -> None:
         camera.report_uniforms(windows.runs, streams()),
         p,
         GRID_SIZE,
+        PAPER_MAP.cells,
         codes,
         CLEAR,
         BURNING,

@@ -29,7 +29,7 @@ from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES
 from wildfire_learning.oracle_kernels import NEVER
 from wildfire_learning.vec_policies import make_vec_policy
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP
 
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))
 SEED = TEST_SEED_BASE + 7
@@ -44,7 +44,7 @@ def short_config(duration_s: float = 30.0, n_aircraft: int = 2) -> EnvConfig:
 def burning_at(future, step: int) -> np.ndarray:
     """(H, W) scorable cells burning at fire step ``step`` by the known future."""
     on = (future.start_step <= step) & (step < future.end_step)
-    return on.reshape(GRID_SIZE, GRID_SIZE)
+    return on.reshape(PAPER_MAP.shape)
 
 
 @pytest.mark.parametrize("seed", [SEED, TEST_SEED_BASE + 18])

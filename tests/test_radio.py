@@ -20,6 +20,7 @@ from wildfire_belief.radio import (
 )
 from wildfire_belief.replicas import BeliefReplicas, visit_key
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
+from wildfire_sim.grid import MapGeometry
 
 
 @pytest.mark.parametrize(
@@ -76,7 +77,7 @@ def random_visits(rng: np.random.Generator, count: int) -> list[Visit]:
 
 
 def merged(batches: list[list[Visit]]) -> BeliefReplicas:
-    replicas = BeliefReplicas(1, 1, grid_size=10)
+    replicas = BeliefReplicas(1, 1, MapGeometry(10, 10))
     replicas.reset([0], np.zeros((1, 10, 10), dtype=bool))
     for batch in batches:
         if not batch:
@@ -107,7 +108,7 @@ def test_shuffled_duplicated_and_delayed_visit_streams_give_equal_replicas(trial
 
 
 def test_the_newest_visit_of_a_cell_wins_and_ties_order_by_aircraft() -> None:
-    replicas = BeliefReplicas(1, 2, grid_size=4)
+    replicas = BeliefReplicas(1, 2, MapGeometry(4, 4))
     replicas.reset([0], np.zeros((1, 4, 4), dtype=bool))
     zero, cell = np.zeros(1, dtype=np.int64), np.array([7])
     # Replica 0 hears tick 5 (burning) before tick 3 (not burning): tick 5 stays.

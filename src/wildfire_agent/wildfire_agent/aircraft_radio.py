@@ -40,17 +40,17 @@ from wildfire_msgs_py.radio_codec import (
     pack_burning,
     radio_to_bytes,
 )
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 
 
-def window_of(message: RadioMessage) -> VisitWindow:
+def window_of(message: RadioMessage, geometry: MapGeometry = PAPER_MAP) -> VisitWindow:
     """The visit window a radio message reports, checked against its pose.
 
     The window and its visited cells follow from the position; a message whose number of
     bits does not fit them is refused (malformed), as is a catch-up reply with cells off the map,
     visits of no aircraft or visits after the message: none of it enters a replica.
     """
-    windows = visit_windows(np.array([message.x_m]), np.array([message.y_m]))
+    windows = visit_windows(np.array([message.x_m]), np.array([message.y_m]), geometry)
     row0, col0 = int(windows.row0[0]), int(windows.col0[0])
     visited = windows.visited[0]
     count = int(visited.sum())
@@ -59,7 +59,7 @@ def window_of(message: RadioMessage) -> VisitWindow:
             DropReason.MALFORMED, f"{message.bits.size} bytes of bits for {count} visited cells"
         )
     for reply in message.replies:
-        if reply.cells.size and int(reply.cells.max()) >= GRID_SIZE * GRID_SIZE:
+        if reply.cells.size and int(reply.cells.max()) >= geometry.cells:
             raise RejectedMessage(DropReason.OUT_OF_RANGE, "catch-up cell off the map")
         if reply.aircraft.size and int(reply.aircraft.max()) >= KEY_AIRCRAFT:
             raise RejectedMessage(DropReason.OUT_OF_RANGE, "catch-up visit of no aircraft")
@@ -70,10 +70,12 @@ def window_of(message: RadioMessage) -> VisitWindow:
     return VisitWindow(row0, col0, visited, burning)
 
 
-def window_cells(window: VisitWindow) -> tuple[np.ndarray, np.ndarray]:
+def window_cells(
+    window: VisitWindow, geometry: MapGeometry = PAPER_MAP
+) -> tuple[np.ndarray, np.ndarray]:
     """Flat map cells and burning values of a window's visited cells."""
     rows, cols = np.nonzero(window.visited)
-    cell = (rows + window.row0) * GRID_SIZE + cols + window.col0
+    cell = (rows + window.row0) * geometry.cols + cols + window.col0
     return cell, np.asarray(window.burning, bool)[rows, cols]
 
 

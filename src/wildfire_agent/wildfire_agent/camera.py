@@ -72,7 +72,7 @@ from wildfire_agent.dynamics import BANK_STEP_RAD, MAX_BANK_STEPS
 from wildfire_belief.sensors import CAMERA_WINDOW, CAMERA_WINDOW_HALF, NUM_CAMERAS
 from wildfire_belief.visits import cell_offset_m, window_cells
 from wildfire_belief.window_runs import WindowRuns, run_cells, runs_of
-from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
+from wildfire_sim.grid import CELL_SIZE_M, PAPER_MAP, MapGeometry
 
 ALTITUDE_M = 200.0
 """Flight altitude h above the ground."""
@@ -164,7 +164,11 @@ class CameraWindows(NamedTuple):
 
 
 def camera_windows(
-    x_m: np.ndarray, y_m: np.ndarray, heading_rad: np.ndarray, bank_steps: np.ndarray
+    x_m: np.ndarray,
+    y_m: np.ndarray,
+    heading_rad: np.ndarray,
+    bank_steps: np.ndarray,
+    geometry: MapGeometry = PAPER_MAP,
 ) -> CameraWindows:
     """The camera footprints of aircraft at the given poses (any matching shapes).
 
@@ -218,7 +222,8 @@ def camera_windows(
         flat(rows, side),
         flat(x_m),
         flat(col - half),
-        GRID_SIZE,
+        geometry.rows,
+        geometry.cols,
         CELL_SIZE_M,
         RANGE_M,
         ALTITUDE_M,
@@ -227,11 +232,21 @@ def camera_windows(
     return CameraWindows(row0=row - half, col0=col - half, runs=runs)
 
 
-def camera_cells(x_m: float, y_m: float, heading_rad: float, bank_steps: int) -> list[np.ndarray]:
+def camera_cells(
+    x_m: float,
+    y_m: float,
+    heading_rad: float,
+    bank_steps: int,
+    geometry: MapGeometry = PAPER_MAP,
+) -> list[np.ndarray]:
     """The cells each camera of one aircraft sees: 4 arrays (K, 2) of (row, col), int64,
     in row-major order (ascending flat cell index)."""
     windows = camera_windows(
-        np.asarray(x_m), np.asarray(y_m), np.asarray(heading_rad), np.asarray(bank_steps)
+        np.asarray(x_m),
+        np.asarray(y_m),
+        np.asarray(heading_rad),
+        np.asarray(bank_steps),
+        geometry,
     )
     cells = []
     for camera in range(NUM_CAMERAS):

@@ -90,7 +90,8 @@ def footprint_runs(
     rows: np.ndarray,
     x: np.ndarray,
     col_west: np.ndarray,
-    grid_size: int,
+    map_rows: int,
+    map_cols: int,
     cell: float,
     range_m: float,
     altitude_m: float,
@@ -111,10 +112,10 @@ def footprint_runs(
         west = col_west[p]
         xp = x[p]
         map_first = min(max(-west, 0), side)
-        map_stop = min(max(grid_size - west, 0), side)
+        map_stop = min(max(map_cols - west, 0), side)
         for i in range(side):
             d = dy[p, i]
-            usable = d * d + 0.0 <= range_m * range_m and 0 <= rows[p, i] < grid_size
+            usable = d * d + 0.0 <= range_m * range_m and 0 <= rows[p, i] < map_rows
             reach = math.sqrt(max(range_m * range_m - d * d, 0.0))
             # The disc's tests ignore the bound: +/-reach only starts their searches.
             near_start = _first_true(_NEAR_START, -reach, d, xp, west, side, cell, range_m)
@@ -141,6 +142,7 @@ def compile_kernels() -> None:
         one.astype(np.int64),
         np.zeros(1),
         np.zeros(1, np.int64),
+        1,
         1,
         1.0,
         1.0,

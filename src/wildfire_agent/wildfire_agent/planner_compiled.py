@@ -60,7 +60,7 @@ from wildfire_agent.planner_reference import (
     PlanModel,
 )
 from wildfire_agent.rewards import disc_kernel
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP
 
 
 @kernel
@@ -247,7 +247,7 @@ def compile_kernels() -> None:
     from wildfire_agent.planner_reference import plan_model
     from wildfire_agent.rewards import ObservationRewardWeights, fire_field_maps
 
-    burning = np.zeros((1, GRID_SIZE, GRID_SIZE), dtype=bool)
+    burning = np.zeros((1, *PAPER_MAP.shape), dtype=bool)
     burning[0, 45:55, 45:55] = True
     weights = ObservationRewardWeights()
     one = np.ones(1)

@@ -18,7 +18,7 @@ import numba
 import numpy as np
 
 from wildfire_agent.dynamics import MAX_BANK_STEPS
-from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
+from wildfire_sim.grid import CELL_SIZE_M
 
 ESTIMATE_TOLERANCE = 1e-7
 """Bound on |estimated - exact| score of a flip that is not unsure (see the module
@@ -77,19 +77,21 @@ def _off_map_fire_term(
     weights: np.ndarray,
 ) -> float:
     """``rewards.fire_terms`` at one position off the map (where no table entry holds it)."""
-    extent = GRID_SIZE * CELL_SIZE_M
+    height, width = distance_m.shape[1], distance_m.shape[2]
     col = math.floor(x / CELL_SIZE_M)
     row = math.floor(y / CELL_SIZE_M)
-    outside = math.hypot(max(max(-x, x - extent), 0.0), max(max(-y, y - extent), 0.0))
-    last = GRID_SIZE - 1
-    nearest = np.float64(distance_m[env, min(max(row, 0), last), min(max(col, 0), last)])
+    outside = math.hypot(
+        max(max(-x, x - width * CELL_SIZE_M), 0.0), max(max(-y, y - height * CELL_SIZE_M), 0.0)
+    )
+    nearest = np.float64(distance_m[env, min(max(row, 0), height - 1), min(max(col, 0), width - 1)])
     distance = min(nearest + outside, weights[W_MAX_DISTANCE])
-    pad = (clear_count.shape[-1] - GRID_SIZE) // 2
-    if -pad <= row < GRID_SIZE + pad and -pad <= col < GRID_SIZE + pad:
-        padded_last = clear_count.shape[-1] - 1
+    pad = (clear_count.shape[-1] - width) // 2
+    if -pad <= row < height + pad and -pad <= col < width + pad:
         clear = np.float64(
             clear_count[
-                env, min(max(row + pad, 0), padded_last), min(max(col + pad, 0), padded_last)
+                env,
+                min(max(row + pad, 0), height + 2 * pad - 1),
+                min(max(col + pad, 0), width + 2 * pad - 1),
             ]
         )
     else:
@@ -98,15 +100,16 @@ def _off_map_fire_term(
 
 
 @inlined
-def _on_map(x: float, y: float) -> bool:
-    extent = GRID_SIZE * CELL_SIZE_M
-    return x >= 0.0 and x <= extent and y >= 0.0 and y <= extent
+def _on_map(x: float, y: float, height: int, width: int) -> bool:
+    """On a map of ``height`` x ``width`` cells, its far edges included."""
+    return x >= 0.0 and x <= width * CELL_SIZE_M and y >= 0.0 and y <= height * CELL_SIZE_M
 
 
 @inlined
-def _table_cell(position_m: float) -> int:
-    """Row or column of ``rewards.fire_term_table`` of an on-map coordinate."""
-    return min(max(math.floor(position_m / CELL_SIZE_M), 0), GRID_SIZE)
+def _table_cell(position_m: float, cells: int) -> int:
+    """Row or column of ``rewards.fire_term_table`` of an on-map coordinate (``cells`` the
+    map's cells along that axis)."""
+    return min(max(math.floor(position_m / CELL_SIZE_M), 0), cells)
 
 
 @inlined
@@ -145,6 +148,7 @@ def fly_exact(
     the number of points written.
     """
     own, start_level, env, others, table, distance_m, clear_count, weights, arcs, next_level = scene
+    height, width = distance_m.shape[1], distance_m.shape[2]
     out_level, out_state, out_range, _ = flown
     horizon = sequences.shape[1]
     point = 0
@@ -169,8 +173,8 @@ def fly_exact(
             cy = dy if t == 0 else cy + dy
             x, y = x0 + cx, y0 + cy
             # ``rewards.tabled_fire_terms``: the table on the map, ``fire_terms`` off it.
-            if _on_map(x, y):
-                fire = table[env[r], _table_cell(y), _table_cell(x)]
+            if _on_map(x, y, height, width):
+                fire = table[env[r], _table_cell(y, height), _table_cell(x, width)]
             else:
                 fire = _off_map_fire_term(distance_m, clear_count, env[r], x, y, weights)
             out_state[point, _BASE] = fire - weights[W_BANK] * arcs[level, PENALTY]
@@ -310,7 +314,9 @@ def _estimate_row(
     x0, y0, h0 = own[r, 0], own[r, 1], own[r, 2]
     to_cells = 1.0 / CELL_SIZE_M
     edge_limit = 0.5 - EDGE_GUARD_CELLS
-    half_extent = GRID_SIZE * CELL_SIZE_M / 2.0
+    # Half the map's extent along each axis: the on-map test below.
+    half_height = distance_m.shape[1] * CELL_SIZE_M / 2.0
+    half_width = distance_m.shape[2] * CELL_SIZE_M / 2.0
     near = np.empty((6, 5))
     # State of every flip before the next decision: after the decision before it.
     before = flights[max(resume_at - 1, 0)]
@@ -362,8 +368,8 @@ def _estimate_row(
             after[5, j] = 1.0 if near_edge else before[5, j]
         for j in range(t + 1):
             x, y = x0 + after[2, j], y0 + after[3, j]
-            if max(abs(x - half_extent), abs(y - half_extent)) <= half_extent:
-                # On the map (its far edge included): cell indices 0..GRID_SIZE.
+            if abs(x - half_width) <= half_width and abs(y - half_height) <= half_height:
+                # On the map (its far edge included): cell indices 0..rows (cols).
                 after[4, j] += table[e, math.floor(y * to_cells), math.floor(x * to_cells)]
             else:
                 after[4, j] += _off_map_fire_term(distance_m, clear_count, e, x, y, weights)

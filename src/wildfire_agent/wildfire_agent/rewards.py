@@ -33,7 +33,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.ndimage
 
-from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
+from wildfire_sim.grid import CELL_SIZE_M
 
 
 @dataclass(frozen=True)
@@ -132,12 +132,11 @@ def count_clear_cells(
     kernel = disc_kernel(radius_m)
     half = kernel.shape[0] // 2
     d_row, d_col = np.nonzero(kernel)
+    height, width = burning.shape[-2:]
     rows = row[..., None] + (d_row - half)
     cols = col[..., None] + (d_col - half)
-    inside = (rows >= 0) & (rows < GRID_SIZE) & (cols >= 0) & (cols < GRID_SIZE)
-    values = burning[
-        env[..., None], np.clip(rows, 0, GRID_SIZE - 1), np.clip(cols, 0, GRID_SIZE - 1)
-    ]
+    inside = (rows >= 0) & (rows < height) & (cols >= 0) & (cols < width)
+    values = burning[env[..., None], np.clip(rows, 0, height - 1), np.clip(cols, 0, width - 1)]
     return (~(inside & values)).sum(axis=-1).astype(np.float64)
 
 
@@ -150,27 +149,28 @@ def fire_terms(
 ) -> np.ndarray:
     """``r1 + r2`` at positions (x, y) in environments ``env`` (all the same shape)."""
     weights = weights or ObservationRewardWeights()
+    height, width = maps.distance_m.shape[-2:]
     col = np.floor(x_m / CELL_SIZE_M).astype(np.int64)
     row = np.floor(y_m / CELL_SIZE_M).astype(np.int64)
     # Off the map: add how far outside the map the aircraft is.
     outside = np.hypot(
-        np.maximum(np.maximum(-x_m, x_m - GRID_SIZE * CELL_SIZE_M), 0.0),
-        np.maximum(np.maximum(-y_m, y_m - GRID_SIZE * CELL_SIZE_M), 0.0),
+        np.maximum(np.maximum(-x_m, x_m - width * CELL_SIZE_M), 0.0),
+        np.maximum(np.maximum(-y_m, y_m - height * CELL_SIZE_M), 0.0),
     )
-    last = GRID_SIZE - 1
     # (np.minimum/np.maximum rather than np.clip: this runs thousands of times per plan.)
     nearest = maps.distance_m[
-        env, np.minimum(np.maximum(row, 0), last), np.minimum(np.maximum(col, 0), last)
+        env,
+        np.minimum(np.maximum(row, 0), height - 1),
+        np.minimum(np.maximum(col, 0), width - 1),
     ]
     distance = np.minimum(nearest + outside, weights.max_distance_m)
     if maps.clear_count is None:
         clear = count_clear_cells(maps.burning, env, row, col, weights.clear_radius_m)
     else:
-        pad = (maps.clear_count.shape[-1] - GRID_SIZE) // 2
-        padded_last = maps.clear_count.shape[-1] - 1
-        in_pad = (row >= -pad) & (row < GRID_SIZE + pad) & (col >= -pad) & (col < GRID_SIZE + pad)
-        padded_row = np.minimum(np.maximum(row + pad, 0), padded_last)
-        padded_col = np.minimum(np.maximum(col + pad, 0), padded_last)
+        pad = (maps.clear_count.shape[-1] - width) // 2
+        in_pad = (row >= -pad) & (row < height + pad) & (col >= -pad) & (col < width + pad)
+        padded_row = np.minimum(np.maximum(row + pad, 0), height + 2 * pad - 1)
+        padded_col = np.minimum(np.maximum(col + pad, 0), width + 2 * pad - 1)
         clear = np.where(
             in_pad,
             maps.clear_count[env, padded_row, padded_col],
@@ -192,13 +192,15 @@ def fire_term_table(maps: FireFieldMaps, weights: ObservationRewardWeights) -> n
     if maps.clear_count is None:
         maps = maps._replace(clear_count=clear_count_map(maps.burning, weights.clear_radius_m))
     assert maps.clear_count is not None
-    side = GRID_SIZE + 1
+    height, width = maps.distance_m.shape[-2:]
     # The far-edge row/column reads the last map cell's distance, as fire_terms' clip does.
-    near = np.minimum(np.arange(side), GRID_SIZE - 1)
-    nearest = maps.distance_m[:, near][:, :, near].astype(np.float64)
+    near_row = np.minimum(np.arange(height + 1), height - 1)
+    near_col = np.minimum(np.arange(width + 1), width - 1)
+    nearest = maps.distance_m[:, near_row][:, :, near_col].astype(np.float64)
     distance = np.minimum(nearest, weights.max_distance_m)
-    pad = (maps.clear_count.shape[-1] - GRID_SIZE) // 2
-    clear = maps.clear_count[:, pad : pad + side, pad : pad + side].astype(np.float64)
+    pad = (maps.clear_count.shape[-1] - width) // 2
+    clear = maps.clear_count[:, pad : pad + height + 1, pad : pad + width + 1]
+    clear = clear.astype(np.float64)
     return -weights.distance * distance - weights.clear_cells * clear
 
 
@@ -216,12 +218,11 @@ def tabled_fire_terms(
     thousands of positions per sweep. Off-map positions, whose distance term depends on how
     far out they are, are computed by :func:`fire_terms`.
     """
-    extent = GRID_SIZE * CELL_SIZE_M
-    off = (x_m < 0.0) | (x_m > extent) | (y_m < 0.0) | (y_m > extent)
-    side = GRID_SIZE + 1
-    col = np.minimum(np.maximum(np.floor(x_m / CELL_SIZE_M), 0), GRID_SIZE).astype(np.int64)
-    row = np.minimum(np.maximum(np.floor(y_m / CELL_SIZE_M), 0), GRID_SIZE).astype(np.int64)
-    values = table.reshape(-1).take((env * side + row) * side + col)
+    height, width = maps.distance_m.shape[-2:]
+    off = (x_m < 0.0) | (x_m > width * CELL_SIZE_M) | (y_m < 0.0) | (y_m > height * CELL_SIZE_M)
+    col = np.minimum(np.maximum(np.floor(x_m / CELL_SIZE_M), 0), width).astype(np.int64)
+    row = np.minimum(np.maximum(np.floor(y_m / CELL_SIZE_M), 0), height).astype(np.int64)
+    values = table.reshape(-1).take((env * (height + 1) + row) * (width + 1) + col)
     if off.any():
         values[off] = fire_terms(maps, env[off], x_m[off], y_m[off], weights)
     return values

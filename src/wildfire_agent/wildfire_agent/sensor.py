@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
+from wildfire_sim.grid import CELL_SIZE_M
 
 N_BEARINGS = 30
 N_RANGES = 40
@@ -56,16 +56,17 @@ def observe(
     ``burning`` is (E, H, W) bool; poses are (E, N). Returns (E, N, 30, 40) uint8 in {0, 1}.
     For one map and one aircraft pass (1, H, W) and (1, 1)-shaped poses.
     """
+    height, width = burning.shape[-2:]
     sx, sy = sample_points(x_m, y_m, heading_rad)
     col = np.floor(sx / CELL_SIZE_M).astype(np.intp)
     row = np.floor(sy / CELL_SIZE_M).astype(np.intp)
-    inside = (row >= 0) & (row < GRID_SIZE) & (col >= 0) & (col < GRID_SIZE)
-    np.clip(row, 0, GRID_SIZE - 1, out=row)
-    np.clip(col, 0, GRID_SIZE - 1, out=col)
+    inside = (row >= 0) & (row < height) & (col >= 0) & (col < width)
+    np.clip(row, 0, height - 1, out=row)
+    np.clip(col, 0, width - 1, out=col)
     # One flat gather (much faster than indexing with three arrays); pass a C-contiguous
     # ``burning`` to avoid a copy.
     env = np.arange(burning.shape[0]).reshape(-1, *([1] * (row.ndim - 1)))
-    flat = (env * GRID_SIZE + row) * GRID_SIZE + col
+    flat = (env * height + row) * width + col
     values = burning.reshape(-1)[flat]
     values &= inside
     return values.view(np.uint8)

@@ -17,7 +17,7 @@ import numpy as np
 
 from wildfire_belief.belief import TICKS_PER_S, SharedBelief
 from wildfire_belief.visits import VisitWindows, visited_cells
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import geometry_of
 
 
 class Window(Protocol):
@@ -46,10 +46,11 @@ class BeliefAggregator:
     """The shared belief of one episode and its cumulative team score."""
 
     def __init__(self, ignition_burning: np.ndarray) -> None:
-        self.belief = SharedBelief(1)
+        self.geometry = geometry_of(ignition_burning)
+        self.belief = SharedBelief(1, self.geometry)
         self.belief.reset([0], ignition_burning)
         self.score = 0
-        self.cell_stamp_ns = np.full((GRID_SIZE, GRID_SIZE), -1, dtype=np.int64)
+        self.cell_stamp_ns = np.full(self.geometry.shape, -1, dtype=np.int64)
         """Stamp of the visit that last set each cell (real time, :meth:`fresher_visits`)."""
 
     @property
@@ -76,11 +77,11 @@ class BeliefAggregator:
             col0=np.array([[w.col0 for w in windows]], dtype=np.int64),
             visited=np.stack([np.asarray(w.visited, bool) for w in windows])[None],
         )
-        truth_grid = np.zeros((GRID_SIZE, GRID_SIZE), dtype=bool)
+        truth_grid = np.zeros(self.geometry.shape, dtype=bool)
         for w in windows:
             i, j = np.nonzero(w.visited)
             truth_grid[w.row0 + i, w.col0 + j] = np.asarray(w.burning, bool)[i, j]
-        env, cell = visited_cells(stacked)
+        env, cell = visited_cells(stacked, self.geometry)
         truth = truth_grid.reshape(-1)[cell]
         reward = int(self.belief.visit(env, cell, truth)[0])
         self.score += reward
@@ -100,7 +101,7 @@ class BeliefAggregator:
         for stamp, window in sorted(stamped, key=lambda item: item[0]):
             rows, cols = np.nonzero(window.visited)
             rows, cols = rows + window.row0, cols + window.col0
-            inside = (rows >= 0) & (rows < GRID_SIZE) & (cols >= 0) & (cols < GRID_SIZE)
+            inside = self.geometry.inside(rows, cols)
             rows, cols = rows[inside], cols[inside]
             fresh = self.cell_stamp_ns[rows, cols] <= stamp
             self.cell_stamp_ns[rows[fresh], cols[fresh]] = stamp

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 
 AGE_CAP_S = 255.0
 """Ages saturate here (and an unvisited cell starts here)."""
@@ -30,10 +30,10 @@ class SharedBelief:
     visit; ``now`` (E,) int64 current tick.
     """
 
-    def __init__(self, num_envs: int, grid_size: int = GRID_SIZE) -> None:
-        self.grid_size = grid_size
-        self.burning = np.zeros((num_envs, grid_size, grid_size), dtype=bool)
-        self.last_visit = np.full((num_envs, grid_size, grid_size), -AGE_CAP_TICKS, np.int64)
+    def __init__(self, num_envs: int, geometry: MapGeometry = PAPER_MAP) -> None:
+        self.geometry = geometry
+        self.burning = np.zeros((num_envs, *geometry.shape), dtype=bool)
+        self.last_visit = np.full((num_envs, *geometry.shape), -AGE_CAP_TICKS, np.int64)
         self.now = np.zeros(num_envs, dtype=np.int64)
 
     @property
@@ -61,7 +61,7 @@ class SharedBelief:
         duplicates) and ``truth`` the true burning value of each, at the current tick.
         """
         # Flat 1-D indices: numpy gathers and scatters them far faster than (env, cell) pairs.
-        flat = env * (self.grid_size * self.grid_size) + cell
+        flat = env * self.geometry.cells + cell
         burning = self.burning.reshape(-1)
         newly_seen = truth & ~burning[flat]
         reward = np.bincount(env[newly_seen], minlength=self.num_envs)

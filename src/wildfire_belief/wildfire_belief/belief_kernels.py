@@ -104,7 +104,8 @@ def window_reports(
     truth: np.ndarray,
     uniforms: np.ndarray,
     p: float,
-    grid_size: int,
+    cols: int,
+    cells: int,
     codes: np.ndarray,
     clear_code: int,
     burning_code: int,
@@ -113,7 +114,7 @@ def window_reports(
 
     ``first`` and ``stop`` (A, K, rows) are the runs of each aircraft's K sensors; ``row0``,
     ``col0`` and ``episode`` (A,) its windows' origin and its episode; ``truth`` the flat
-    (E * grid_size**2) bool map of every episode; ``uniforms`` one per seen cell, in
+    (E * cells) bool map (``cols`` cells a row) of every episode; ``uniforms`` one per seen cell, in
     ``run_cells`` order (each aircraft's block, ``camera.report_uniforms``). A report flips
     its cell's truth when its uniform is below ``p``. Returns each report's episode, flat
     map cell, value and whether it flipped. Where ``codes`` has A rows, ((A, K, rows, side)
@@ -129,13 +130,12 @@ def window_reports(
     cell = np.empty(total, np.int64)
     value = np.empty(total, np.bool_)
     wrong = np.empty(total, np.bool_)
-    cells = grid_size * grid_size
     n = 0
     for a in range(aircraft):
         e = episode[a]
         for k in range(sensors):
             for i in range(rows):
-                row_start = e * cells + (row0[a] + i) * grid_size + col0[a]
+                row_start = e * cells + (row0[a] + i) * cols + col0[a]
                 for j in range(first[a, k, i], stop[a, k, i]):
                     flat = row_start + j
                     flipped = uniforms[n] < p
@@ -209,7 +209,19 @@ def compile_kernels() -> None:
     runs, origin = np.zeros((1, 1, 1), np.int64), np.zeros(1, np.int64)
     codes = np.zeros((0, 1, 1, 1), np.uint8)
     window_reports(
-        runs, runs + 1, origin, origin, origin, np.zeros(1, bool), np.ones(1), 0.1, 1, codes, 1, 2
+        runs,
+        runs + 1,
+        origin,
+        origin,
+        origin,
+        np.zeros(1, bool),
+        np.ones(1),
+        0.1,
+        1,
+        1,
+        codes,
+        1,
+        2,
     )
     stencil_sum(np.zeros((1, 1, 1)), np.zeros((1, 5, 5)), np.zeros((1, 1, 1)))
     cells, counts = np.zeros(1, bool), np.zeros(1, np.int64)

@@ -30,7 +30,7 @@ from wildfire_belief.belief import TICKS_PER_S
 from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_belief.wind_filter import WindFilter, team_wind_filter
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, EPISODE_DEFAULTS, initial_fire
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.shapes import Shape, shape_masks
 
 
@@ -59,12 +59,14 @@ def score_decision(
     return scores, alarms
 
 
-def report_cells(windows: Sequence[Window]) -> tuple[np.ndarray, np.ndarray]:
+def report_cells(
+    windows: Sequence[Window], geometry: MapGeometry = PAPER_MAP
+) -> tuple[np.ndarray, np.ndarray]:
     """The reports of ``windows``, in their order: (flat cell index, reported value)."""
     cells, values = [], []
     for window in windows:
         i, j = np.nonzero(np.asarray(window.visited, dtype=bool))
-        cells.append((window.row0 + i) * GRID_SIZE + window.col0 + j)
+        cells.append((window.row0 + i) * geometry.cols + window.col0 + j)
         values.append(np.asarray(window.burning, dtype=bool)[i, j])
     if not cells:
         return np.zeros(0, np.int64), np.zeros(0, bool)
@@ -101,7 +103,7 @@ class FilteredAggregator:
         """The team's wind filter (``wind_filter``): its estimate drives the process term."""
         if wind_filter:
             self.wind = team_wind_filter(seed, pixel_error, ignition, masks.fuel, preburn_steps)
-        self.scored = np.zeros((GRID_SIZE, GRID_SIZE), dtype=bool)
+        self.scored = np.zeros(self.belief.geometry.shape, dtype=bool)
         self.score = 0
         self.false_alarms = 0
         self.reports = 0
@@ -138,7 +140,7 @@ class FilteredAggregator:
             if self.wind is not None:
                 self.wind.steer(self.belief, 0)
             self.belief.predict()
-        cell, value = report_cells(windows)
+        cell, value = report_cells(windows, self.belief.geometry)
         self.belief.update(np.zeros(cell.size, np.int64), cell, value)
         if self.wind is not None:
             self.wind.observe(cell, value)

@@ -124,7 +124,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from wildfire_belief.report_clock import ReportClock, as_ids
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 
 if TYPE_CHECKING:
     from wildfire_sim.fire import FireParams
@@ -223,8 +223,8 @@ class LogOddsBelief(ReportClock):
         Environments in the batch.
     p : float
         Report flip probability, in [0, 0.5).
-    grid_size : int
-        Cells per map edge.
+    geometry : MapGeometry
+        The map (rows and columns of cells).
     params : FireParams, optional
         Fire model parameters: the spread constant of the stencil and the fuel range and
         burn rate that set the burn-out hazard. The defaults if omitted.
@@ -255,13 +255,13 @@ class LogOddsBelief(ReportClock):
         num_envs: int,
         p: float = PIXEL_ERROR,
         *,
-        grid_size: int = GRID_SIZE,
+        geometry: MapGeometry = PAPER_MAP,
         params: FireParams | None = None,
         max_log_odds: float | None = None,
         age_hazard: bool = True,
         spread_scale: float = SPREAD_SCALE,
     ) -> None:
-        super().__init__(num_envs, grid_size)
+        super().__init__(num_envs, geometry)
         # numba (~0.5 s to import) only where a filtered belief is made, and its kernels
         # loaded now, not in the first report of a real-time run.
         from wildfire_belief.belief_kernels import compile_kernels
@@ -286,14 +286,14 @@ class LogOddsBelief(ReportClock):
         survival = burn_survival(self.params)
         # P(burning at age a + 1 | burning at age a), a = 0 .. longest burn (then 0).
         self._stay = np.append(survival[1:] / np.maximum(survival[:-1], 1e-300), 0.0)
-        shape = (num_envs, grid_size, grid_size)
+        shape = (num_envs, *geometry.shape)
         # The floor probability, sigmoid(-max_log_odds): a cell there holds no fire at all.
         self.floor = 1.0 / (1.0 + math.exp(self.max_log_odds))
         self.log_odds = np.full(shape, -self.max_log_odds)
         self.spent = np.zeros(shape)
         self.burn_age = np.zeros(shape)
         self.wind = np.zeros((num_envs, 2))
-        self._net = np.zeros(num_envs * grid_size * grid_size, dtype=np.int32)
+        self._net = np.zeros(num_envs * geometry.cells, dtype=np.int32)
         """Scratch of :meth:`update`: per cell, its reports' net count (zero between calls)."""
         self._kernel = np.broadcast_to(
             self.spread_scale * log_survival_kernel(np.zeros(2), self.params), (num_envs, 5, 5)
@@ -351,7 +351,7 @@ class LogOddsBelief(ReportClock):
         Parameters
         ----------
         env, cell, value : (n,) arrays
-            Environment index, flat cell index ``row * grid_size + col`` and reported
+            Environment index, flat cell index ``row * cols + col`` and reported
             burning value of each report. A cell may appear any number of times: every
             report counts. Every reported cell's age restarts at 0.
         """

@@ -11,7 +11,7 @@ import numpy as np
 
 from wildfire_belief.filtered_belief import IGNITION_PROBABILITY
 from wildfire_belief.report_clock import ReportClock, as_ids
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 
 KALMAN_Q = 0.01
 """Process variance the Kalman form adds per predict."""
@@ -32,8 +32,8 @@ class KalmanBelief(ReportClock):
         Variance added to every cell per :meth:`predict`.
     r : float
         Measurement variance of one report.
-    grid_size : int
-        Cells per map edge.
+    geometry : MapGeometry
+        The map (rows and columns of cells).
 
     Attributes
     ----------
@@ -49,13 +49,13 @@ class KalmanBelief(ReportClock):
         q: float = KALMAN_Q,
         r: float = KALMAN_R,
         *,
-        grid_size: int = GRID_SIZE,
+        geometry: MapGeometry = PAPER_MAP,
     ) -> None:
-        super().__init__(num_envs, grid_size)
+        super().__init__(num_envs, geometry)
         if not q >= 0 or not r > 0:
             raise ValueError(f"q, r: expected q >= 0 and r > 0, got {q}, {r}")
         self.q, self.r = float(q), float(r)
-        shape = (num_envs, grid_size, grid_size)
+        shape = (num_envs, *geometry.shape)
         self.mean = np.zeros(shape)
         self.variance = np.full(shape, KALMAN_INITIAL_VARIANCE)
 

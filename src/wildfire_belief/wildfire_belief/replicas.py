@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from wildfire_belief.belief import AGE_CAP_TICKS, age_seconds
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 
 KEY_SHIFT = 6
 """Bits of the aircraft index in a visit key: the tick is ``key >> KEY_SHIFT`` (a shift, not a
@@ -42,8 +42,8 @@ class BeliefReplicas:
     that set each cell; ``now`` (E,) int64, the current tick.
     """
 
-    def __init__(self, num_envs: int, replicas: int, grid_size: int = GRID_SIZE) -> None:
-        shape = (num_envs, replicas, grid_size, grid_size)
+    def __init__(self, num_envs: int, replicas: int, geometry: MapGeometry = PAPER_MAP) -> None:
+        shape = (num_envs, replicas, *geometry.shape)
         self.burning = np.zeros(shape, dtype=bool)
         self.key = np.full(shape, UNVISITED_KEY, dtype=np.int64)
         self.now = np.zeros(num_envs, dtype=np.int64)
@@ -77,7 +77,7 @@ class BeliefReplicas:
         """Merge visited cells into replicas: per cell, the greatest key's value wins.
 
         Every argument is a flat array over the visited cells: environment, replica, flat
-        cell index ``row * GRID_SIZE + col``, visit key and the burning value seen.
+        cell index ``row * cols + col``, visit key and the burning value seen.
         """
         flat = (np.asarray(env, np.int64) * self.key.shape[1] + replica) * self.cells + cell
         keys, values = self.key.reshape(-1), self.burning.reshape(-1)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from wildfire_belief.belief import AGE_CAP_TICKS, age_seconds
+from wildfire_sim.grid import MapGeometry
 
 
 def as_ids(env_ids: np.ndarray | list[int] | None, num_envs: int) -> np.ndarray:
@@ -22,12 +23,12 @@ class ReportClock:
     Arrays: ``now`` (E,) int64 current tick; ``last_report`` (E, H, W) int64.
     """
 
-    def __init__(self, num_envs: int, grid_size: int) -> None:
+    def __init__(self, num_envs: int, geometry: MapGeometry) -> None:
         if num_envs < 1:
             raise ValueError(f"num_envs: expected >= 1, got {num_envs}")
-        self.grid_size = grid_size
+        self.geometry = geometry
         self.now = np.zeros(num_envs, dtype=np.int64)
-        shape = (num_envs, grid_size, grid_size)
+        shape = (num_envs, *geometry.shape)
         self.last_report = np.full(shape, -AGE_CAP_TICKS, dtype=np.int64)
 
     @property
@@ -65,7 +66,7 @@ class ReportClock:
                 f"env, cell and value must have one entry per report, got "
                 f"{env.size}, {cell.size} and {value.size}"
             )
-        cells = self.grid_size * self.grid_size
+        cells = self.geometry.cells
         if env.size and (
             env.min() < 0 or env.max() >= self.num_envs or cell.min() < 0 or cell.max() >= cells
         ):

@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
+from wildfire_sim.grid import CELL_SIZE_M, PAPER_MAP, MapGeometry
 
 VISIT_RADIUS_M = 100.0
 """Cells whose centre is this close to an aircraft are visited."""
@@ -22,6 +22,10 @@ WINDOW_HALF = 10
 """Cells from the aircraft's cell to the window edge."""
 VISIT_WINDOW = 2 * WINDOW_HALF + 1
 """Edge of the visit window in cells."""
+SCRATCH_CELLS = 1 << 22
+"""Batches of at most this many map cells deduplicate visits in a scratch array indexed by
+cell (O(visits) and fastest); larger ones (field maps) sort the visits instead, so that a
+decision never costs a pass over the map."""
 
 
 class VisitWindows(NamedTuple):
@@ -62,7 +66,13 @@ def within_radius(dy: np.ndarray, dx: np.ndarray, radius_m: float) -> np.ndarray
     return dy**2 + dx**2 <= radius_m**2
 
 
-def disc_window(x_m: np.ndarray, y_m: np.ndarray, half: int, radius_m: float) -> DiscWindow:
+def disc_window(
+    x_m: np.ndarray,
+    y_m: np.ndarray,
+    half: int,
+    radius_m: float,
+    geometry: MapGeometry = PAPER_MAP,
+) -> DiscWindow:
     """The ``2 half + 1`` cells square window around aircraft at (x, y) (any matching
     shapes), with the cells whose centre lies within ``radius_m``, inside the map. (The
     visits use 10 cells and 100 m; the cameras' range 30 cells and 300 m.)"""
@@ -75,32 +85,39 @@ def disc_window(x_m: np.ndarray, y_m: np.ndarray, half: int, radius_m: float) ->
     dy = cell_offset_m(rows, y_m[..., None])
     dx = cell_offset_m(cols, x_m[..., None])
     within = within_radius(dy[..., :, None], dx[..., None, :], radius_m)
-    row_inside = (rows >= 0) & (rows < GRID_SIZE)
-    col_inside = (cols >= 0) & (cols < GRID_SIZE)
+    row_inside = (rows >= 0) & (rows < geometry.rows)
+    col_inside = (cols >= 0) & (cols < geometry.cols)
     disc = within & row_inside[..., :, None] & col_inside[..., None, :]
     return DiscWindow(row - half, col - half, dx, dy, disc)
 
 
-def visit_windows(x_m: np.ndarray, y_m: np.ndarray) -> VisitWindows:
-    """The visit windows of aircraft at (x, y) (any matching shapes)."""
-    window = disc_window(x_m, y_m, WINDOW_HALF, VISIT_RADIUS_M)
+def visit_windows(
+    x_m: np.ndarray, y_m: np.ndarray, geometry: MapGeometry = PAPER_MAP
+) -> VisitWindows:
+    """The visit windows of aircraft at (x, y) (any matching shapes) on the map ``geometry``."""
+    window = disc_window(x_m, y_m, WINDOW_HALF, VISIT_RADIUS_M, geometry)
     return VisitWindows(row0=window.row0, col0=window.col0, visited=window.disc)
 
 
-def visited_cells(windows: VisitWindows) -> tuple[np.ndarray, np.ndarray]:
+def visited_cells(
+    windows: VisitWindows, geometry: MapGeometry = PAPER_MAP
+) -> tuple[np.ndarray, np.ndarray]:
     """Cells visited by any aircraft of each environment, counted once.
 
     ``windows`` has leading dims (E, N). Returns ``(env, cell)`` int64 arrays with the flat
-    cell index ``row * GRID_SIZE + col``, no duplicates, in no particular order.
+    cell index ``row * cols + col``, no duplicates, in no particular order.
     """
     num_envs, num_aircraft = windows.visited.shape[:2]
     flat_window = np.flatnonzero(windows.visited)
     pose, offset = np.divmod(flat_window, VISIT_WINDOW * VISIT_WINDOW)
     i, j = np.divmod(offset, VISIT_WINDOW)
     env = pose // num_aircraft
-    cells_per_env = GRID_SIZE * GRID_SIZE
-    key = env * cells_per_env + (windows.row0.reshape(-1)[pose] + i) * GRID_SIZE
+    cells_per_env = geometry.cells
+    key = env * cells_per_env + (windows.row0.reshape(-1)[pose] + i) * geometry.cols
     key += windows.col0.reshape(-1)[pose] + j
+    if num_envs * cells_per_env > SCRATCH_CELLS:
+        key = np.unique(key)
+        return key // cells_per_env, key % cells_per_env
     # Deduplicate in O(visits): every occurrence stamps its position into a scratch array
     # indexed by cell; the occurrence whose stamp survived is the one kept. (np.unique sorts
     # or hashes, and was the slowest part of a decision.)
@@ -114,16 +131,17 @@ def visited_cells(windows: VisitWindows) -> tuple[np.ndarray, np.ndarray]:
 def window_cells(grid: np.ndarray, row0: np.ndarray, col0: np.ndarray, side: int) -> np.ndarray:
     """Values of a (E, H, W) grid in square windows of ``side`` cells whose south-west cells
     are (row0, col0), each (E, N): (E, N, side, side); 0 outside the map."""
+    height, width = grid.shape[-2:]
     span = np.arange(side)
     rows = row0[..., None] + span  # (E, N, side)
     cols = col0[..., None] + span
-    inside = ((rows >= 0) & (rows < GRID_SIZE))[..., :, None]
-    inside = inside & ((cols >= 0) & (cols < GRID_SIZE))[..., None, :]
+    inside = ((rows >= 0) & (rows < height))[..., :, None]
+    inside = inside & ((cols >= 0) & (cols < width))[..., None, :]
     env = np.arange(grid.shape[0])[:, None, None, None]
     values = grid[
         env,
-        np.clip(rows, 0, GRID_SIZE - 1)[..., :, None],
-        np.clip(cols, 0, GRID_SIZE - 1)[..., None, :],
+        np.clip(rows, 0, height - 1)[..., :, None],
+        np.clip(cols, 0, width - 1)[..., None, :],
     ]
     return np.where(inside, values, 0).astype(grid.dtype)
 

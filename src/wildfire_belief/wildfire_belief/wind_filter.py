@@ -103,7 +103,7 @@ import numpy as np
 
 from wildfire_belief.filtered_belief import PIXEL_ERROR, LogOddsBelief
 from wildfire_sim.defaults import EPISODE_DEFAULTS
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.seeding import Stream, generator
 
 if TYPE_CHECKING:
@@ -134,8 +134,8 @@ class WindFilter:
         Standard deviation of the wind jitter after resampling.
     params : FireParams, optional
         Parameters of the particles' fire model; the defaults if omitted.
-    grid_size : int
-        Cells per map edge.
+    geometry : MapGeometry
+        The map (rows and columns of cells).
 
     Attributes
     ----------
@@ -155,7 +155,7 @@ class WindFilter:
         max_wind: float = EPISODE_DEFAULTS.max_wind,
         jitter: float = WIND_JITTER,
         params: FireParams | None = None,
-        grid_size: int = GRID_SIZE,
+        geometry: MapGeometry = PAPER_MAP,
     ) -> None:
         if num_particles < 1:
             raise ValueError(f"num_particles: expected >= 1, got {num_particles}")
@@ -169,9 +169,9 @@ class WindFilter:
         self.rng = rng
         self.max_wind = float(max_wind)
         self.jitter = float(jitter)
-        self.grid_size = grid_size
+        self.geometry = geometry
         self.report_log_odds = math.log((1.0 - p) / p)
-        self.particles = LogOddsBelief(num_particles, p, grid_size=grid_size, params=params)
+        self.particles = LogOddsBelief(num_particles, p, geometry=geometry, params=params)
         self.log_weights = np.zeros(num_particles)
 
     def reset(
@@ -212,7 +212,7 @@ class WindFilter:
         Parameters
         ----------
         cells : (n,) int
-            Flat cell index ``row * grid_size + col`` of each report (repeats allowed).
+            Flat cell index ``row * cols + col`` of each report (repeats allowed).
         values : (n,) bool
             Reported burning value of each.
         """
@@ -222,7 +222,7 @@ class WindFilter:
             raise ValueError(f"got {cells.size} cells but {values.size} values")
         if cells.size == 0:
             return
-        if cells.min() < 0 or cells.max() >= self.grid_size * self.grid_size:
+        if cells.min() < 0 or cells.max() >= self.geometry.cells:
             raise ValueError("a report names a cell outside the map")
         touched, inverse = np.unique(cells, return_inverse=True)
         net = np.bincount(inverse, weights=np.where(values, 1.0, -1.0), minlength=touched.size)
@@ -259,7 +259,7 @@ class WindFilter:
     def probability(self) -> np.ndarray:
         """Weighted mean of the particles' probabilities of burning, (H, W) float64."""
         probability = self.particles.probability().reshape(self.num_particles, -1)
-        return (self.weights() @ probability).reshape(self.grid_size, self.grid_size)
+        return (self.weights() @ probability).reshape(self.geometry.shape)
 
     def wind_estimate(self) -> np.ndarray:
         """Weighted mean of the particles' winds, (2,) float64."""

@@ -11,6 +11,13 @@ import numpy as np
 
 from wildfire_belief.radio import CommError, CommModel
 from wildfire_belief.sensors import SENSORS
+from wildfire_msgs_py.map_geometry import (
+    MAX_SIDE,
+    MIN_SIDE,
+    PAPER_MAP,
+    MapGeometry,
+    MapGeometryError,
+)
 from wildfire_sim.defaults import EPISODE_DEFAULTS
 
 
@@ -124,6 +131,31 @@ def add_comm_argument(parser: argparse.ArgumentParser | argparse._ActionsContain
     )
 
 
+def map_size(text: str) -> MapGeometry:
+    """argparse type: ``ROWS,COLS`` cells of 10 m, each in [50, 2000]."""
+    try:
+        return MapGeometry.parse(text)
+    except MapGeometryError as error:
+        raise argparse.ArgumentTypeError(str(error).removeprefix("map size: ")) from None
+
+
+def add_map_arguments(parser: argparse.ArgumentParser | argparse._ActionsContainer) -> None:
+    """The map's options (``map_settings`` reads them)."""
+    parser.add_argument(
+        "--map-size",
+        type=map_size,
+        default=PAPER_MAP,
+        metavar="R,C",
+        help=f"rows and columns of 10 m cells, each in [{MIN_SIDE}, {MAX_SIDE}] (default "
+        f"{PAPER_MAP.text}: the paper's 1 km square); named shapes sit at the map's centre",
+    )
+
+
+def map_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """``EnvConfig`` fields of ``add_map_arguments``."""
+    return {"geometry": args.map_size}
+
+
 CAMERA_PIXEL_ERROR = 0.1
 """The camera's pixel error unless given (the disc's is 0: the paper's perfect sensor)."""
 
@@ -202,6 +234,7 @@ def add_episode_arguments(
     add_duration_argument(parser)
     add_comm_argument(parser)
     add_sensor_arguments(parser)
+    add_map_arguments(parser)
 
 
 def add_max_wind_argument(parser: argparse.ArgumentParser | argparse._ActionsContainer) -> None:
@@ -279,6 +312,7 @@ def scenario_settings(args: argparse.Namespace) -> dict[str, Any]:
         "max_duration_s": args.duration,
         "comm": args.comm,
         **sensor_settings(args),
+        **map_settings(args),
     }
     if args.max_wind is not None:
         settings["max_wind"] = args.max_wind

@@ -23,6 +23,7 @@ from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.results_report import Scenario
 from wildfire_learning.vec_policies import check_world, make_vec_policy
+from wildfire_msgs_py.map_geometry import PAPER_MAP, MapGeometry
 from wildfire_sim.shapes import Shape
 
 
@@ -50,7 +51,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         action="store_true",
         help="record the result in the policy's JSON model card (key "
         "test_evaluations.<shape>_<N>aircraft, with _wind<WX,WY> or _maxwind<W>, "
-        "_comm<MODEL> and _sensor<SENSOR>,p=<P> appended for those); Q-network policies only",
+        "_comm<MODEL>, _sensor<SENSOR>,p=<P> and _map<R,C> appended for those); Q-network "
+        "policies only",
     )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
@@ -63,11 +65,12 @@ def card_key(
     max_wind: float | None,
     comm: CommModel = IDEAL,
     sensing: tuple[str, float] = ("disc", 0.0),
+    geometry: MapGeometry = PAPER_MAP,
 ) -> str:
     """Key of an evaluation in a model card: ``circular_2aircraft`` under the default random
     wind, ideal links and the perfect disc, with the wind setting, the radio model and the
     sensing appended otherwise (so it never replaces the default's), e.g.
-    ``circular_2aircraft_sensorcamera,p=0.1``."""
+    ``circular_2aircraft_sensorcamera,p=0.1`` or ``circular_16aircraft_map500,500``."""
     key = Scenario(shape, aircraft).key
     if wind is not None:
         key = f"{key}_wind{wind[0]:g},{wind[1]:g}"
@@ -77,6 +80,8 @@ def card_key(
         key = f"{key}_comm{comm}"
     if noisy(*sensing):
         key = f"{key}_sensor{sensing[0]},p={sensing[1]:g}"
+    if not geometry.is_paper:
+        key = f"{key}_map{geometry.text}"
     return key
 
 
@@ -135,14 +140,16 @@ def run(args: argparse.Namespace) -> int:
         "comm": str(config.comm),
         "sensor": config.sensor,
         "pixel_error": config.pixel_error,
+        "map_size": list(config.geometry.shape),
     }
     if args.card:
         from wildfire_learning.export import record_evaluation
 
         sensing = (config.sensor, config.pixel_error)
         scenario = card_key(
-            shape.value, args.aircraft, args.wind, args.max_wind, config.comm, sensing
-        )
+            shape.value, args.aircraft, args.wind, args.max_wind, config.comm, sensing,
+            config.geometry,
+        )  # fmt: skip
         card = record_evaluation(resolve_policy_path(args.policy), scenario, result)
         if not args.json:
             print(f"recorded {scenario} in {card}")

@@ -28,6 +28,7 @@ from wildfire_cli.common import (
     scenario_settings,
 )
 from wildfire_cli.progress import progress_bar
+from wildfire_msgs_py.map_geometry import PAPER_MAP
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -217,6 +218,12 @@ def build_spec(args: argparse.Namespace) -> Any:
         shapes=(shape.value,), observation="none", **scenario_settings(args)
     ).validate()
     policy = resolve_policy(args.policy, config)
+    if not config.geometry.is_paper:
+        # The nodes exchange whole maps every tick; at field scale they must send tiles.
+        raise UserError(
+            f"--map-size {config.geometry.text}: the distributed system flies the "
+            f"{PAPER_MAP.text} map until its maps travel as tiles (eval flies any size)"
+        )
     if not config.comm.ideal and args.realtime:
         raise UserError(f"--comm {config.comm}: limited radio links fly in lockstep only so far")
     scenario = draw_scenario(args.seed, config)

@@ -109,22 +109,25 @@ def plot_footprints(
     from matplotlib.colors import to_rgba
     from matplotlib.patches import Patch
 
-    from wildfire_sim.grid import GRID_SIZE, MAP_SIZE_M
+    from wildfire_sim.grid import PAPER_MAP
+
+    # The footprints of one pose are drawn on the paper's 1 km map around it.
+    map_size_m = PAPER_MAP.width_m
 
     fig, ax = plt.subplots(figsize=(6, 6))
     # Translucent layers, so a cell two cameras share shows both colours mixed.
     for camera in range(NUM_CAMERAS):
-        layer = np.zeros((GRID_SIZE, GRID_SIZE, 4))
+        layer = np.zeros((*PAPER_MAP.shape, 4))
         rows, cols = cells[camera].T
         layer[rows, cols] = to_rgba(CAMERA_COLOURS[camera], alpha=0.55)
         ax.imshow(
             layer,
             origin="lower",
-            extent=(0.0, MAP_SIZE_M, 0.0, MAP_SIZE_M),
+            extent=(0.0, map_size_m, 0.0, map_size_m),
             interpolation="nearest",
         )
     ax.plot(x_m, y_m, "ko", ms=5)
-    arrow_m = 0.08 * MAP_SIZE_M
+    arrow_m = 0.08 * map_size_m
     ax.annotate(
         "",
         xy=(x_m + arrow_m * math.cos(heading_rad), y_m + arrow_m * math.sin(heading_rad)),
@@ -142,8 +145,8 @@ def plot_footprints(
         loc="upper right",
     )
     ax.set_title(title, fontsize=9)
-    ax.set_xlim(0, MAP_SIZE_M)
-    ax.set_ylim(0, MAP_SIZE_M)
+    ax.set_xlim(0, map_size_m)
+    ax.set_ylim(0, map_size_m)
     ax.set_aspect("equal")
     ax.set_xlabel("east (m)", fontsize=8)
     ax.set_ylabel("north (m)", fontsize=8)

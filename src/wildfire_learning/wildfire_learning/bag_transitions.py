@@ -82,7 +82,7 @@ from wildfire_sim.episode import (
     FIRE_STEP_NS,
     fire_at_border,
 )
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import geometry_of
 
 
 class Recording(NamedTuple):
@@ -240,10 +240,11 @@ def read_recording(bag_dir: str | Path, need_belief: bool) -> Recording:
                 actions[action_topics[record.topic]].append(codecs.action_from_msg(record.message))
             elif record.topic == contract.FIRE_MAP.name:
                 grid = codecs.fire_grid_from_msg(record.message)
-                if grid.shape != (GRID_SIZE, GRID_SIZE):
+                # Every fire map of a run has its first one's shape (the run's map).
+                if fire and grid.shape != fire[0][1].shape:
                     raise LearningError(
                         f"bag {bag}: fire map of shape {grid.shape}, "
-                        f"expected {(GRID_SIZE, GRID_SIZE)}"
+                        f"expected {fire[0][1].shape} as the bag's first"
                     )
                 fire.append((_stamp_ns(record.message), grid))
             elif record.topic == contract.BELIEF.name and belief is None:
@@ -361,7 +362,8 @@ def rebuild_transitions(
     else:
         actions = actions_from_banks(states[:-1, :, 3], states[1:, :, 3])
 
-    belief = SharedBelief(1)
+    geometry = geometry_of(recording.fire_maps[0])
+    belief = SharedBelief(1, geometry)
     camera_world = sees_cameras(approach, recording.sensing.sensor)
     noisy = NoisySensing.of(
         recording.sensing,
@@ -403,8 +405,9 @@ def rebuild_transitions(
         elif approach == Approach.BELIEF and t >= 1:
             # Decision t moved the aircraft, then visited (the environment's order).
             belief.tick()
-            env_idx, cell = visited_cells(visit_windows(pose.x_m, pose.y_m))
-            truth = burning[cell // GRID_SIZE, cell % GRID_SIZE]
+            windows = visit_windows(pose.x_m, pose.y_m, geometry)
+            env_idx, cell = visited_cells(windows, geometry)
+            truth = burning[cell // geometry.cols, cell % geometry.cols]
             team = int(belief.visit(env_idx, cell, truth)[0])
         weights = config.obs_weights
         if i >= 1 and camera_world:

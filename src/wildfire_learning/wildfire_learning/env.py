@@ -82,7 +82,7 @@ from wildfire_sim.episode import (
     fire_at_border,
 )
 from wildfire_sim.fire import BatchedFire, FireParams
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.seeding import Stream, generator
 from wildfire_sim.shapes import Shape, seed_centre_m, shape_masks
 
@@ -96,6 +96,8 @@ class EnvConfig:
 
     n_aircraft: int = 2
     """Aircraft per episode."""
+    geometry: MapGeometry = PAPER_MAP
+    """The map: rows and columns of 10 m cells (``--map-size``; the paper's 100 x 100)."""
     observation: str = "obs"
     """``obs`` (sensor image), ``belief`` (ego belief image) or ``none``."""
     reward: str = "obs"
@@ -199,7 +201,7 @@ def draw_scenario(seed: int, config: EnvConfig) -> Scenario:
     shape = Shape.parse(config.shapes[int(rng.integers(len(config.shapes)))])
     drawn_wind = rng.uniform(-config.max_wind, config.max_wind, size=2)
     wind = np.asarray(config.wind, dtype=np.float64) if config.wind is not None else drawn_wind
-    centre = seed_centre_m(shape_masks(shape).ignition)
+    centre = seed_centre_m(shape_masks(shape, config.geometry).ignition)
     low, high = config.start_range_m
     start = dynamics.start_poses(rng, config.n_aircraft, centre, low, high)
     return Scenario(shape=shape, wind=wind, start=start)
@@ -228,8 +230,9 @@ class WildfireVecEnv:
             raise LearningError(f"num_envs: expected >= 1, got {num_envs}")
         self.num_envs = num_envs
         n = config.n_aircraft
-        self.fire = BatchedFire(num_envs, config.fire)
-        self.belief = SharedBelief(num_envs)
+        self.geometry = config.geometry
+        self.fire = BatchedFire(num_envs, config.fire, config.geometry)
+        self.belief = SharedBelief(num_envs, config.geometry)
         self.aircraft = AircraftState(
             x_m=np.zeros((num_envs, n)),
             y_m=np.zeros((num_envs, n)),
@@ -247,7 +250,9 @@ class WildfireVecEnv:
         # C-contiguous copy of the burning grids, refreshed when fires step: sensors and
         # visits read it every decision, and the fire model stores its grids env-last.
         self.truth = np.ascontiguousarray(self.fire.burning)
-        self.radio = None if config.comm.ideal else TeamRadio(config.comm, num_envs, n)
+        self.radio = (
+            None if config.comm.ideal else TeamRadio(config.comm, num_envs, n, config.geometry)
+        )
         self.sensing = None
         if config.noisy:
             self.sensing = TeamSensing(
@@ -258,6 +263,7 @@ class WildfireVecEnv:
                 config.preburn_steps,
                 config.wind_filter,
                 keep_codes=config.camera_view,
+                geometry=config.geometry,
             )
 
     # ------------------------------------------------------------------ reset
@@ -272,7 +278,7 @@ class WildfireVecEnv:
         if np.any(seeds < 0):
             raise LearningError("seed: expected numbers >= 0")
         scenarios = [draw_scenario(int(seed), self.config) for seed in seeds]
-        masks = [shape_masks(s.shape) for s in scenarios]
+        masks = [shape_masks(s.shape, self.geometry) for s in scenarios]
         self.fire.reset(
             env_ids,
             seeds,
@@ -353,11 +359,11 @@ class WildfireVecEnv:
     def _visit(self, active: np.ndarray) -> np.ndarray:
         """Visit the cells near every aircraft of active environments; team reward (E,)."""
         self.belief.tick(np.flatnonzero(active))
-        windows = visit_windows(self.aircraft.x_m, self.aircraft.y_m)
-        env, cell = visited_cells(windows)
+        windows = visit_windows(self.aircraft.x_m, self.aircraft.y_m, self.geometry)
+        env, cell = visited_cells(windows, self.geometry)
         keep = active[env]
         env, cell = env[keep], cell[keep]
-        truth = self.truth.reshape(-1)[env * GRID_SIZE * GRID_SIZE + cell]
+        truth = self.truth.reshape(-1)[env * self.geometry.cells + cell]
         if self.radio is not None:
             seen = window_values(self.truth, windows).astype(bool)
             self.radio.send(active, self.decisions, self.seeds, self.aircraft, windows, seen)
@@ -407,7 +413,7 @@ class WildfireVecEnv:
         if self.radio is None:
             believed = self.believed()
         else:
-            believed = self.radio.replicas.burning.reshape(-1, GRID_SIZE, GRID_SIZE)
+            believed = self.radio.replicas.burning.reshape(-1, *self.geometry.shape)
         return fire_field_maps(believed, self.config.obs_weights)
 
     def team_views(self) -> AircraftState:

@@ -51,7 +51,6 @@ from wildfire_learning.env import EnvConfig, VecPolicy, WildfireVecEnv, draw_sce
 from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES, flight_of
 from wildfire_learning.oracle_kernels import NEVER, RATES, cover, fly_path, search
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, FireEpisode
-from wildfire_sim.grid import GRID_SIZE
 from wildfire_sim.seeding import Stream, generator
 
 
@@ -107,6 +106,11 @@ class KnownFuture(NamedTuple):
     cells (to skip windows with none)."""
 
     @property
+    def cols(self) -> int:
+        """Cells of the map from west to east."""
+        return self.open_sums.shape[2] - 1
+
+    @property
     def ceiling(self) -> int:
         """Cells a team could score at most (the environment's score ceiling)."""
         return int((self.start_step < NEVER).sum())
@@ -123,6 +127,7 @@ def known_future(seed: int, config: EnvConfig) -> KnownFuture:
         preburn_steps=config.preburn_steps,
         border_cells=config.border_cells,
         params=config.fire,
+        geometry=config.geometry,
     )
     maps = [episode.burning.copy()]
     while not episode.final:
@@ -137,8 +142,9 @@ def known_future(seed: int, config: EnvConfig) -> KnownFuture:
     steps = np.arange(len(maps))[:, None]
     if not np.array_equal((steps >= start) & (steps < end), burning & scorable):
         raise AssertionError(f"seed {seed}: a cell burns over two intervals")
-    grid = (burning & scorable).reshape(len(maps), GRID_SIZE, GRID_SIZE).astype(np.int64)
-    sums = np.zeros((len(maps), GRID_SIZE + 1, GRID_SIZE + 1), np.int64)
+    rows, cols = config.geometry.shape
+    grid = (burning & scorable).reshape(len(maps), rows, cols).astype(np.int64)
+    sums = np.zeros((len(maps), rows + 1, cols + 1), np.int64)
     sums[:, 1:, 1:] = grid.cumsum(axis=1).cumsum(axis=2)
     return KnownFuture(int(seed), scenario.start, episode.decisions, start, end, sums)
 
@@ -174,6 +180,7 @@ def coverage_score(future: KnownFuture, xs: np.ndarray, ys: np.ndarray) -> int:
             future.start_step,
             future.end_step,
             covered,
+            future.cols,
         )
     return total
 
@@ -273,7 +280,7 @@ def replan_team(
             for j in free:
                 if j != k:
                     x, y, _, _ = fly_path(*state[j], plan[j, d0 : d0 + steps], RATES)
-                    cover(x, y, d0 + 1, ss, es, others)
+                    cover(x, y, d0 + 1, ss, es, others, future.cols)
             base = np.where(others, -1, NEVER).astype(np.int64)
             late = es * DECISIONS_PER_FIRE_STEP > d0 + config.urgent_window
             weight = np.where(late, config.late_weight, 1.0)
@@ -323,7 +330,7 @@ def _receding_horizon(
         commit = min(tau, length - d0)
         for k in free:
             xs, ys, hs, levels = fly_path(*state[k], plan[k, d0 : d0 + commit], RATES)
-            cover(xs, ys, d0 + 1, future.start_step, future.end_step, covered)
+            cover(xs, ys, d0 + 1, future.start_step, future.end_step, covered, future.cols)
             state[k] = (float(xs[-1]), float(ys[-1]), float(hs[-1]), int(levels[-1]))
     return plan[:, :length].copy()
 
@@ -373,7 +380,10 @@ def best_response(
     covered = np.zeros(future.start_step.size, np.bool_)
     for j in range(n):
         if j != k:
-            cover(team.x_m[j], team.y_m[j], 1, future.start_step, future.end_step, covered)
+            cover(
+                team.x_m[j], team.y_m[j], 1, future.start_step, future.end_step, covered,
+                future.cols,
+            )  # fmt: skip
     plan = _padded(future, team.actions, horizon + config.replan_every)
     actions = _receding_horizon(future, config, plan, [k], covered, horizon, keep_tail=True)
     others = np.arange(n) != k

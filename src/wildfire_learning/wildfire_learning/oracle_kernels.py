@@ -23,7 +23,7 @@ from wildfire_agent.dynamics import (
 )
 from wildfire_belief.visits import VISIT_RADIUS_M, WINDOW_HALF
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
-from wildfire_sim.grid import CELL_SIZE_M, GRID_SIZE
+from wildfire_sim.grid import CELL_SIZE_M
 
 NEVER = np.iinfo(np.int64).max // 4
 """A fire step or decision that never comes."""
@@ -77,10 +77,11 @@ def fly_path(
 @inlined
 def window_has_open(sums: np.ndarray, step: int, row: int, col: int) -> bool:
     """Whether the visit window around cell (row, col) holds a scorable burning cell."""
-    r0 = min(max(row - WINDOW_HALF, 0), GRID_SIZE)
-    r1 = min(max(row + WINDOW_HALF + 1, 0), GRID_SIZE)
-    c0 = min(max(col - WINDOW_HALF, 0), GRID_SIZE)
-    c1 = min(max(col + WINDOW_HALF + 1, 0), GRID_SIZE)
+    rows, cols = sums.shape[1] - 1, sums.shape[2] - 1
+    r0 = min(max(row - WINDOW_HALF, 0), rows)
+    r1 = min(max(row + WINDOW_HALF + 1, 0), rows)
+    c0 = min(max(col - WINDOW_HALF, 0), cols)
+    c1 = min(max(col + WINDOW_HALF + 1, 0), cols)
     if r0 >= r1 or c0 >= c1:
         return False
     total = sums[step, r1, c1] - sums[step, r0, c1] - sums[step, r1, c0] + sums[step, r0, c0]
@@ -100,27 +101,30 @@ def claim(
     stamp: int,
     write_first: int,
     weight: np.ndarray,
+    rows: int,
+    cols: int,
 ) -> float:
     """Visit the cells around (x, y) at fire step ``step`` (``visits.visit_windows``'s test,
     operation for operation): count the burning cells whose ``first`` is at least
     ``open_after`` and whose ``mark`` is not ``stamp``, and mark them (with ``stamp``, and
-    ``first = write_first`` when ``write_first`` >= 0); returns their summed ``weight``."""
+    ``first = write_first`` when ``write_first`` >= 0) on a map of ``rows`` x ``cols``
+    cells; returns their summed ``weight``."""
     row = math.floor(y / CELL_SIZE_M)
     col = math.floor(x / CELL_SIZE_M)
     count = 0.0
     for i in range(-WINDOW_HALF, WINDOW_HALF + 1):
         r = row + i
-        if r < 0 or r >= GRID_SIZE:
+        if r < 0 or r >= rows:
             continue
         dy = (r + 0.5) * CELL_SIZE_M - y
         dy2 = dy * dy
         for j in range(-WINDOW_HALF, WINDOW_HALF + 1):
             c = col + j
-            if c < 0 or c >= GRID_SIZE:
+            if c < 0 or c >= cols:
                 continue
             dx = (c + 0.5) * CELL_SIZE_M - x
             if dy2 + dx * dx <= _RADIUS2:
-                cell = r * GRID_SIZE + c
+                cell = r * cols + c
                 if (
                     start[cell] <= step < end[cell]
                     and first[cell] >= open_after
@@ -141,9 +145,12 @@ def cover(
     start: np.ndarray,
     end: np.ndarray,
     covered: np.ndarray,
+    cols: int,
 ) -> int:
-    """Mark ``covered`` (0/1 per cell) the cells visited while burning by a flight whose
-    point ``u`` is at decision ``first_decision + u``; returns the cells newly covered."""
+    """Mark ``covered`` (0/1 per cell of a map ``cols`` cells wide) the cells visited while
+    burning by a flight whose point ``u`` is at decision ``first_decision + u``; returns the
+    cells newly covered."""
+    rows = covered.size // cols
     mark = np.zeros(covered.size, np.int64)
     first = np.zeros(covered.size, np.int64)
     for cell in range(covered.size):
@@ -152,7 +159,7 @@ def cover(
     count = 0
     for u in range(xs.size):
         step = (first_decision + u) // DECISIONS_PER_FIRE_STEP
-        count += int(claim(xs[u], ys[u], step, start, end, first, 0, mark, 1, -1, ones))
+        count += int(claim(xs[u], ys[u], step, start, end, first, 0, mark, 1, -1, ones, rows, cols))
     for cell in range(covered.size):
         covered[cell] = mark[cell] == 1
     return count
@@ -186,7 +193,10 @@ def refresh(
             sums, step, math.floor(ys[u] / CELL_SIZE_M), math.floor(xs[u] / CELL_SIZE_M)
         ):
             continue
-        gain[u] = claim(xs[u], ys[u], step, start, end, first, NEVER, mark, stamp, u, weight)
+        rows, cols = sums.shape[1] - 1, sums.shape[2] - 1
+        gain[u] = claim(
+            xs[u], ys[u], step, start, end, first, NEVER, mark, stamp, u, weight, rows, cols
+        )
 
 
 @kernel
@@ -212,6 +222,7 @@ def search(
     for cells already covered (by the team or the others' plans) and ``NEVER`` for open ones."""
     count, horizon = restarts.shape
     cells = base_first.size
+    rows, cols = sums.shape[1] - 1, sums.shape[2] - 1
     best = restarts[0].copy()
     best_value = -1.0
     mark = np.zeros(cells, np.int64)
@@ -250,7 +261,9 @@ def search(
                         sums, step, math.floor(y / CELL_SIZE_M), math.floor(x / CELL_SIZE_M)
                     ):
                         continue
-                    total += claim(x, y, step, start, end, first, t, mark, stamp, -1, weight)
+                    total += claim(
+                        x, y, step, start, end, first, t, mark, stamp, -1, weight, rows, cols
+                    )
                 if total > value + 1e-9:
                     # Take the flip: fly it, forget what the plan covered from t on, re-credit.
                     sequence[t] ^= 1

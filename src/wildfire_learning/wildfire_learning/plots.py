@@ -18,7 +18,7 @@ from matplotlib.colors import ListedColormap
 from matplotlib.image import AxesImage
 
 from wildfire_learning.summary_stats import standard_error
-from wildfire_sim.grid import MAP_SIZE_M
+from wildfire_sim.grid import geometry_of
 
 CURVE_CSV = "learning_curve.csv"
 CURVE_PNG = "learning_curve.png"
@@ -40,7 +40,6 @@ CURVE_FIELDS = (
 """Columns of the learning curve: one row per evaluation of a training run."""
 SEED_CURVE_FIELDS = ("iteration", "runs", "score_mean", "score_sem", "reward_mean", "reward_sem")
 """Columns of a learning curve over several runs: means and standard errors across runs."""
-EXTENT = (0.0, MAP_SIZE_M, 0.0, MAP_SIZE_M)
 # 0 unburnt, 1 burnt out, 2 burning.
 FIRE_COLOURS = ListedColormap(["#f4f1e8", "#5b5b5b", "#e8491d"])
 
@@ -50,9 +49,16 @@ def fire_state_image(burning: np.ndarray, affected: np.ndarray) -> np.ndarray:
     return np.where(burning, 2, np.where(affected, 1, 0))
 
 
+def map_extent(grid: np.ndarray) -> tuple[float, float, float, float]:
+    """(west, east, south, north) in metres of a map-sized grid (its last two axes)."""
+    geometry = geometry_of(grid)
+    return (0.0, geometry.width_m, 0.0, geometry.height_m)
+
+
 def _show_grid(ax: Axes, grid: np.ndarray, **style: Any) -> AxesImage:
-    """Draw a map-frame grid (row 0 at the south) over the 1 km square."""
-    return ax.imshow(grid, origin="lower", extent=EXTENT, interpolation="nearest", **style)
+    """Draw a map-frame grid (row 0 at the south) over the map it covers."""
+    extent = map_extent(grid)
+    return ax.imshow(grid, origin="lower", extent=extent, interpolation="nearest", **style)
 
 
 def _show_fire(ax: Axes, truth: np.ndarray, alpha: float = 1.0) -> None:
@@ -60,10 +66,11 @@ def _show_fire(ax: Axes, truth: np.ndarray, alpha: float = 1.0) -> None:
     _show_grid(ax, truth, cmap=FIRE_COLOURS, vmin=0, vmax=2, alpha=alpha)
 
 
-def _map_axes(ax: Axes, title: str) -> None:
+def _map_axes(ax: Axes, title: str, grid: np.ndarray) -> None:
+    west, east, south, north = map_extent(grid)
     ax.set_title(title, fontsize=9)
-    ax.set_xlim(0, MAP_SIZE_M)
-    ax.set_ylim(0, MAP_SIZE_M)
+    ax.set_xlim(west, east)
+    ax.set_ylim(south, north)
     ax.set_aspect("equal")
     ax.tick_params(labelsize=7)
 
@@ -78,9 +85,9 @@ def plot_fire_propagation(
     for row, (step, burning, affected, fuel) in enumerate(frames):
         ax_fire, ax_fuel = axes[row]
         _show_fire(ax_fire, fire_state_image(burning, affected))
-        _map_axes(ax_fire, f"fire locations, t = {step * 2.5:.0f} s")
+        _map_axes(ax_fire, f"fire locations, t = {step * 2.5:.0f} s", burning)
         image = _show_grid(ax_fuel, fuel, cmap="YlGn", vmin=0, vmax=22)
-        _map_axes(ax_fuel, "fuel map")
+        _map_axes(ax_fuel, "fuel map", fuel)
         fig.colorbar(image, ax=ax_fuel, fraction=0.046)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
@@ -100,9 +107,9 @@ def plot_episode(
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.6))
     truth = fire_state_image(burning, affected)
     _show_fire(axes[0], truth)
-    _map_axes(axes[0], "true fire (red burning, grey burnt)")
+    _map_axes(axes[0], "true fire (red burning, grey burnt)", burning)
     _show_grid(axes[1], believed, cmap="Reds", vmin=0, vmax=1.5)
-    _map_axes(axes[1], "shared belief (believed burning)")
+    _map_axes(axes[1], "shared belief (believed burning)", burning)
     _show_fire(axes[2], truth, alpha=0.6)
     colours = plt.cm.tab10(np.arange(trajectory.shape[1]) % 10)
     for k in range(trajectory.shape[1]):
@@ -111,7 +118,7 @@ def plot_episode(
         axes[2].plot(*xy[0], "o", color=colours[k], ms=4)
         axes[2].plot(*xy[-1], ">", color=colours[k], ms=6)
     axes[2].legend(fontsize=7, loc="upper right")
-    _map_axes(axes[2], "flight paths (o start, > end)")
+    _map_axes(axes[2], "flight paths (o start, > end)", burning)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -30,16 +30,19 @@ from wildfire_belief.radio import CommModel, LinkDraws, delivered
 from wildfire_belief.replicas import BeliefReplicas, visit_key
 from wildfire_belief.visits import VISIT_WINDOW, VisitWindows
 from wildfire_msgs_py.radio_codec import Digest, Reply
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 
 
 class TeamRadio:
     """Radio links, replicas and heard poses of ``num_envs`` episodes of ``n`` aircraft."""
 
-    def __init__(self, model: CommModel, num_envs: int, n: int) -> None:
+    def __init__(
+        self, model: CommModel, num_envs: int, n: int, geometry: MapGeometry = PAPER_MAP
+    ) -> None:
         self.model = model
         self.n = n
-        self.replicas = BeliefReplicas(num_envs, n)
+        self.geometry = geometry
+        self.replicas = BeliefReplicas(num_envs, n, geometry)
         self.heard = HeardPoses(num_envs, n, n)
         self.draws = LinkDraws(num_envs, n)
         slots, shape = model.delay + 1, (model.delay + 1, num_envs, n)
@@ -149,7 +152,7 @@ class TeamRadio:
         s, env = slot[e], envs[e]
         m, a, b = np.nonzero(self.visited[s, env, j])
         source = (s[m], env[m], j[m])
-        cell = (self.row0[source] + a) * GRID_SIZE + self.col0[source] + b
+        cell = (self.row0[source] + a) * self.geometry.cols + self.col0[source] + b
         key = visit_key(self.sent_tick[s[m], env[m]], j[m])
         self.replicas.merge(env[m], i[m], cell, key, self.seen[(*source, a, b)])
 
@@ -159,8 +162,8 @@ class TeamRadio:
         e, n = replicas.burning.shape[:2]
         flat = AircraftState(*(f.reshape(e * n, 1) for f in pose))
         images = belief_images(
-            replicas.burning.reshape(e * n, GRID_SIZE, GRID_SIZE),
-            replicas.age_s().reshape(e * n, GRID_SIZE, GRID_SIZE),
+            replicas.burning.reshape(e * n, *self.geometry.shape),
+            replicas.age_s().reshape(e * n, *self.geometry.shape),
             flat,
         )
         return images.reshape(e, n, *images.shape[2:])

@@ -47,7 +47,7 @@ from wildfire_belief.visits import visit_windows
 from wildfire_belief.wind_filter import WindFilter, team_wind_filter
 from wildfire_belief.window_runs import WindowRuns, runs_of
 from wildfire_msgs_py.belief_codec import published_probability
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.seeding import Stream, generator
 
 
@@ -62,12 +62,16 @@ class SensorWindows(NamedTuple):
     """(E, N, C, rows): the cells each sensor C (cameras, or 1 disc) sees, row by row."""
 
 
-def sensor_windows(sensor: str, pose: AircraftState) -> SensorWindows:
-    """The windows of ``sensor`` for aircraft at ``pose`` (fields (E, N))."""
+def sensor_windows(
+    sensor: str, pose: AircraftState, geometry: MapGeometry = PAPER_MAP
+) -> SensorWindows:
+    """The windows of ``sensor`` for aircraft at ``pose`` (fields (E, N)) on ``geometry``."""
     if sensor == "camera":
-        cameras = camera.camera_windows(pose.x_m, pose.y_m, pose.heading_rad, pose.bank_steps)
+        cameras = camera.camera_windows(
+            pose.x_m, pose.y_m, pose.heading_rad, pose.bank_steps, geometry
+        )
         return SensorWindows(cameras.row0, cameras.col0, cameras.runs)
-    disc = visit_windows(pose.x_m, pose.y_m)
+    disc = visit_windows(pose.x_m, pose.y_m, geometry)
     return SensorWindows(disc.row0, disc.col0, runs_of(disc.visited[:, :, None]))
 
 
@@ -83,13 +87,15 @@ class TeamSensing:
         preburn_steps: int,
         wind_filter: bool = False,
         keep_codes: bool = False,
+        geometry: MapGeometry = PAPER_MAP,
     ) -> None:
         self.sensor = sensor
+        self.geometry = geometry
         self.pixel_error = pixel_error
         self.n = n
         self.preburn_steps = preburn_steps
-        self.belief = LogOddsBelief(num_envs, pixel_error)
-        shape = (num_envs, GRID_SIZE, GRID_SIZE)
+        self.belief = LogOddsBelief(num_envs, pixel_error, geometry=geometry)
+        shape = (num_envs, *geometry.shape)
         self._probability = np.zeros(shape)
         self.scored = np.zeros(shape, dtype=bool)
         """Cells that have scored this episode (each scores at most once)."""
@@ -150,7 +156,7 @@ class TeamSensing:
             particles.steer(belief, e)
         if stepped.size:
             belief.predict(stepped)
-        windows = sensor_windows(self.sensor, pose)
+        windows = sensor_windows(self.sensor, pose, self.geometry)
         rngs = [rng for e in envs.tolist() for rng in self.rngs[e]]
         runs = WindowRuns(*(bound[envs] for bound in windows.runs))
         uniforms = camera.report_uniforms(runs, rngs)
@@ -169,7 +175,8 @@ class TeamSensing:
             np.ascontiguousarray(truth, dtype=bool).reshape(-1),
             uniforms,
             self.pixel_error,
-            GRID_SIZE,
+            self.geometry.cols,
+            self.geometry.cells,
             codes,
             CLEAR,
             BURNING,

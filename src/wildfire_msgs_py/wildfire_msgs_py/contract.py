@@ -42,15 +42,15 @@ import re
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+# Map-sized grids (the fire, the fuel, the belief and its ages) have the run's geometry;
+# the cell size is the contract's too (an OccupancyGrid's ``resolution``).
+from wildfire_msgs_py.map_geometry import CELL_SIZE_M
+
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
 #: Frame of every grid and pose: x east, y north, origin at the grid's south-west corner.
 MAP_FRAME = "map"
-#: Cells per side of every map-sized grid (the fire, the fuel, the belief and its ages).
-GRID_SIZE = 100
-#: Side of a cell in metres (an OccupancyGrid's ``resolution``).
-CELL_SIZE_M = 10.0
 #: One decision is 0.1 s: tick ``k`` is stamped ``k * DECISION_PERIOD_NS`` of sim time.
 DECISION_PERIOD_NS = 100_000_000
 #: Prefix of an aircraft namespace; aircraft ``k`` lives in ``/uav{k}``.
@@ -384,6 +384,7 @@ __all__ = [
     "BELIEF_SNAPSHOT",
     "CAMERA_CELLS",
     "CAMERA_FOOTPRINTS",
+    "CELL_SIZE_M",
     "CLOCK",
     "CLOCK_QOS",
     "DEADLINE_STATUS",

@@ -29,8 +29,9 @@ from wildfire_msgs_py.codecs import (
     time_from_msg,
     visit_from_msg,
 )
-from wildfire_msgs_py.contract import CELL_SIZE_M, DECISION_PERIOD_NS, GRID_SIZE, MAP_FRAME
+from wildfire_msgs_py.contract import DECISION_PERIOD_NS, MAP_FRAME
 from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
+from wildfire_msgs_py.map_geometry import CELL_SIZE_M, PAPER_MAP, MapGeometry
 from wildfire_msgs_py.radio_codec import RadioMessage, radio_from_msg
 from wildfire_msgs_py.system_codecs import (
     EPISODE_NAME,
@@ -68,13 +69,13 @@ def _frame(header: Any, expected: str = MAP_FRAME) -> None:
         raise _reject(DropReason.WRONG_FRAME, f"frame {header.frame_id!r}, expected {expected!r}")
 
 
-def _square_layout(msg: Any, side: int, what: str) -> None:
-    """An OccupancyGrid in frame ``map`` of ``side`` x ``side`` cells of the map's size."""
+def _grid_layout(msg: Any, shape: tuple[int, int], what: str) -> None:
+    """An OccupancyGrid in frame ``map`` of ``shape`` (rows, cols) cells of the map's size."""
     _frame(msg.header)
-    if (msg.info.height, msg.info.width) != (side, side):
+    if (msg.info.height, msg.info.width) != shape:
         raise _reject(
             DropReason.MALFORMED,
-            f"{what} {msg.info.height} x {msg.info.width}, expected {side} x {side}",
+            f"{what} {msg.info.height} x {msg.info.width}, expected {shape[0]} x {shape[1]}",
         )
     if msg.info.resolution != CELL_SIZE_M:
         raise _reject(
@@ -82,36 +83,36 @@ def _square_layout(msg: Any, side: int, what: str) -> None:
         )
 
 
-def _map_grid(msg: Any) -> np.ndarray:
-    """The (GRID_SIZE, GRID_SIZE) grid of a map-sized OccupancyGrid in frame ``map``."""
-    _square_layout(msg, GRID_SIZE, "grid")
+def _map_grid(msg: Any, geometry: MapGeometry) -> np.ndarray:
+    """The (rows, cols) grid of a map-sized OccupancyGrid in frame ``map``."""
+    _grid_layout(msg, geometry.shape, "grid")
     return grid_from_msg(msg)
 
 
-def checked_fire_grid(msg: Any) -> tuple[int, np.ndarray]:
-    """Fire map -> (stamp ns, bool burning mask)."""
+def checked_fire_grid(msg: Any, geometry: MapGeometry = PAPER_MAP) -> tuple[int, np.ndarray]:
+    """Fire map of ``geometry`` -> (stamp ns, bool burning mask)."""
     stamp = _stamp(msg.header)
-    grid = _map_grid(msg)
+    grid = _map_grid(msg, geometry)
     if not np.isin(grid, (FIRE_BURNING, FIRE_NOT_BURNING)).all():
         raise _reject(DropReason.OUT_OF_RANGE, "fire grid values other than 0 and 100")
     return stamp, grid == FIRE_BURNING
 
 
-def checked_belief_grid(msg: Any) -> tuple[int, np.ndarray]:
+def checked_belief_grid(msg: Any, geometry: MapGeometry = PAPER_MAP) -> tuple[int, np.ndarray]:
     """Shared belief (percent of burning) -> (stamp ns, float32 probability of burning)."""
     stamp = _stamp(msg.header)
-    grid = _map_grid(msg)
+    grid = _map_grid(msg, geometry)
     if grid.min() < FIRE_NOT_BURNING or grid.max() > FIRE_BURNING:
         raise _reject(DropReason.OUT_OF_RANGE, "belief values outside 0..100")
     return stamp, belief_probability(grid)
 
 
-def checked_age_image(msg: Any) -> tuple[int, np.ndarray]:
-    """Exact belief ages -> (stamp ns, (GRID_SIZE, GRID_SIZE) float32 seconds)."""
+def checked_age_image(msg: Any, geometry: MapGeometry = PAPER_MAP) -> tuple[int, np.ndarray]:
+    """Exact belief ages -> (stamp ns, (rows, cols) float32 seconds)."""
     stamp = _stamp(msg.header)
     _frame(msg.header)
     ages = age_image_from_msg(msg)
-    if ages.shape != (GRID_SIZE, GRID_SIZE):
+    if ages.shape != geometry.shape:
         raise _reject(DropReason.MALFORMED, f"age image {ages.shape}, expected a map-sized grid")
     if not _ages_ok(ages):
         raise _reject(DropReason.OUT_OF_RANGE, f"ages not finite or outside 0..{AGE_LIMIT_S:g} s")
@@ -158,13 +159,20 @@ def checked_radio(msg: Any, sender: int, max_bank_steps: int) -> tuple[int, Radi
     return message.tick * DECISION_PERIOD_NS, message
 
 
-def checked_visit(msg: Any, window_side: int) -> tuple[int, VisitWindow]:
+def checked_visit(
+    msg: Any, window_side: int, geometry: MapGeometry = PAPER_MAP
+) -> tuple[int, VisitWindow]:
     """Visit or camera report window -> (stamp ns, window) of the expected size, origin on
     the cell grid, every reported cell on the map (an honest sensor sees no cell off it)."""
     stamp = _stamp(msg.header)
-    _square_layout(msg, window_side, "window")
-    origin = (msg.info.origin.position.x, msg.info.origin.position.y)
-    if not all(math.isfinite(v) and -window_side <= v / CELL_SIZE_M <= GRID_SIZE for v in origin):
+    _grid_layout(msg, (window_side, window_side), "window")
+    x, y = msg.info.origin.position.x, msg.info.origin.position.y
+    inside = all(
+        math.isfinite(v) and -window_side <= v / CELL_SIZE_M <= side
+        for v, side in ((x, geometry.cols), (y, geometry.rows))
+    )
+    if not inside:
+        origin = (x, y)
         raise _reject(DropReason.OUT_OF_RANGE, f"window origin {origin} off the map")
     grid = grid_from_msg(msg)
     if not np.isin(grid, (UNKNOWN_CELL, FIRE_NOT_BURNING, FIRE_BURNING)).all():
@@ -172,7 +180,7 @@ def checked_visit(msg: Any, window_side: int) -> tuple[int, VisitWindow]:
     window = visit_from_msg(msg)
     rows, cols = np.nonzero(window.visited)
     rows, cols = rows + window.row0, cols + window.col0
-    if rows.size and (min(rows.min(), cols.min()) < 0 or max(rows.max(), cols.max()) >= GRID_SIZE):
+    if rows.size and not geometry.inside(rows, cols).all():
         raise _reject(DropReason.OUT_OF_RANGE, "reported cells off the map")
     return stamp, window
 
@@ -207,10 +215,10 @@ def checked_ack(msg: Any, reporters: set[str]) -> tuple[str, int]:
     return reporter, stamp
 
 
-def checked_snapshot(msg: Any) -> BeliefSnapshot:
+def checked_snapshot(msg: Any, geometry: MapGeometry = PAPER_MAP) -> BeliefSnapshot:
     """Belief snapshot of a map-sized grid with finite, non-negative numbers."""
     snapshot = snapshot_from_msg(msg)
-    if snapshot.believed.shape != (GRID_SIZE, GRID_SIZE):
+    if snapshot.believed.shape != geometry.shape:
         raise _reject(DropReason.MALFORMED, f"snapshot grid {snapshot.believed.shape}")
     numbers = (snapshot.time_s, snapshot.score)
     if not (all(math.isfinite(v) and v >= 0 for v in numbers) and _ages_ok(snapshot.age_s)):

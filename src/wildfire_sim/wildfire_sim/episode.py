@@ -25,6 +25,7 @@ import numpy as np
 # A tick's stamp is the wire's: every node and message shares one decision clock.
 from wildfire_msgs_py.contract import DECISION_PERIOD_NS
 from wildfire_sim.defaults import EPISODE_DEFAULTS, EpisodeDefaults
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.shapes import Shape, shape_masks
 
 if TYPE_CHECKING:
@@ -87,13 +88,18 @@ def stamp_ceiling_ns(status_tick: int) -> int:
 
 
 def initial_fire(
-    seed: int, shape: Shape | str, wind: tuple[float, float] = (0.0, 0.0)
+    seed: int,
+    shape: Shape | str,
+    wind: tuple[float, float] = (0.0, 0.0),
+    geometry: MapGeometry = PAPER_MAP,
 ) -> BatchedFire:
     """The fire of episode ``seed`` at ignition (before the pre-burn), one environment."""
     from wildfire_sim.fire import BatchedFire
 
-    masks = shape_masks(Shape.parse(str(shape.value if isinstance(shape, Shape) else shape)))
-    fire = BatchedFire(1)
+    masks = shape_masks(
+        Shape.parse(str(shape.value if isinstance(shape, Shape) else shape)), geometry
+    )
+    fire = BatchedFire(1, geometry=geometry)
     fire.reset([0], [seed], masks.ignition, masks.fuel, np.asarray(wind, dtype=np.float64))
     return fire
 
@@ -111,16 +117,17 @@ class FireEpisode:
         preburn_steps: int = EPISODE_DEFAULTS.preburn_steps,
         border_cells: int = EPISODE_DEFAULTS.border_cells,
         params: FireParams | None = None,
+        geometry: MapGeometry = PAPER_MAP,
     ) -> None:
         self.seed = int(seed)
         self.shape = Shape.parse(str(shape.value if isinstance(shape, Shape) else shape))
         self.wind = (float(wind[0]), float(wind[1]))
         self.max_decisions = int(max_decisions)
         self.border_cells = int(border_cells)
-        masks = shape_masks(self.shape)
+        masks = shape_masks(self.shape, geometry)
         from wildfire_sim.fire import BatchedFire
 
-        self.fire = BatchedFire(1, params)
+        self.fire = BatchedFire(1, params, geometry)
         self.fire.reset([0], [self.seed], masks.ignition, masks.fuel, np.asarray(self.wind))
         self.ignition_burning = self.fire.burning[0].copy()
         for _ in range(preburn_steps):

@@ -18,9 +18,13 @@ Implementation notes (why it is fast and reproducible):
   integer below 2**24, exact in float32 whatever order the convolution sums in, so the
   result is bit-identical for any batch size or convolution algorithm. The quantisation
   changes each P by less than 2e-5 relative (P is capped at 0.99 so the sums stay exact).
-* Each environment draws its uniforms from its own generator (``seeding.Stream.FIRE``),
-  one per candidate cell (not burning, with fuel, next to fire) in row-major order, so a
-  fire depends on its seed only, never on the batch it runs in.
+* On the paper's 100 x 100 map each environment draws its uniforms from its own generator
+  (``seeding.Stream.FIRE``), one per candidate cell (not burning, with fuel, next to fire)
+  in row-major order, so a fire depends on its seed only, never on the batch it runs in
+  (and every stored score stays what it was).
+* On any other map the uniform of a candidate is counter-based: a hash of (seed, fire step,
+  cell) (:func:`wildfire_sim.seeding.cell_uniforms`). It then depends on nothing but those
+  three, so the fire may be stepped on any cut of its active region.
 """
 
 from __future__ import annotations
@@ -32,8 +36,8 @@ import torch
 import torch.nn.functional as F
 
 from wildfire_sim.errors import FireConfigError
-from wildfire_sim.grid import GRID_SIZE
-from wildfire_sim.seeding import Stream, generator
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
+from wildfire_sim.seeding import Stream, cell_uniforms, generator
 
 STENCIL_RADIUS = 2
 """Cells further than this (in row or column) never ignite each other."""
@@ -107,7 +111,7 @@ def quantised_log_kernel(wind: np.ndarray, spread_constant: float = 22.0) -> np.
 
 
 class BatchedFire:
-    """``num_envs`` independent fires on ``grid_size`` x ``grid_size`` grids, stepped together.
+    """``num_envs`` independent fires on maps of ``geometry``, stepped together.
 
     Public state arrays have a leading environment dimension:
 
@@ -123,14 +127,17 @@ class BatchedFire:
     """
 
     def __init__(
-        self, num_envs: int, params: FireParams | None = None, grid_size: int = GRID_SIZE
+        self,
+        num_envs: int,
+        params: FireParams | None = None,
+        geometry: MapGeometry = PAPER_MAP,
     ) -> None:
         if num_envs < 1:
             raise FireConfigError(f"num_envs: expected >= 1, got {num_envs}")
         self.params = (params or FireParams()).validate()
         self.num_envs = num_envs
-        self.grid_size = grid_size
-        storage = (grid_size, grid_size, num_envs)
+        self.geometry = geometry
+        storage = (*geometry.shape, num_envs)
         self._fuel = np.zeros(storage, dtype=np.int8)
         self._initial_fuel = np.zeros(storage, dtype=np.int8)
         self._burning = np.zeros(storage, dtype=bool)
@@ -138,6 +145,7 @@ class BatchedFire:
         self.steps = np.zeros(num_envs, dtype=np.int64)
         self._kernels = np.zeros((num_envs, 1, 5, 5), dtype=np.float32)
         self._generators: list[np.random.Generator | None] = [None] * num_envs
+        self._seeds = np.zeros(num_envs, dtype=np.uint64)
         # (row0, row1, col0, col1) of the grid part that can change; None: recompute.
         self._window: tuple[int, int, int, int] | None = None
 
@@ -175,7 +183,7 @@ class BatchedFire:
         seeds = np.atleast_1d(np.asarray(seeds, dtype=np.int64))
         if env_ids.shape != seeds.shape:
             raise FireConfigError(f"got {env_ids.size} environments but {seeds.size} seeds")
-        grid = (self.grid_size, self.grid_size)
+        grid = self.geometry.shape
         ignition = np.broadcast_to(np.asarray(ignition, dtype=bool), (env_ids.size, *grid))
         fuel_mask = np.broadcast_to(np.asarray(fuel_mask, dtype=bool), (env_ids.size, *grid))
         wind = np.broadcast_to(validate_wind(wind), (env_ids.size, 2))
@@ -189,6 +197,7 @@ class BatchedFire:
             self._burning[:, :, env] = ignition[k] & (fuel > 0)
             self._generators[env] = rng
         self.wind[env_ids] = wind
+        self._seeds[env_ids] = seeds.astype(np.uint64)
         self.steps[env_ids] = 0
         self._window = None
         self._kernels[env_ids, 0] = quantised_log_kernel(wind, p.spread_constant)
@@ -230,7 +239,7 @@ class BatchedFire:
         flat_index = np.flatnonzero(candidates)
         ignites = np.zeros(burning.shape, dtype=bool)
         if flat_index.size:
-            uniforms = self._draw_uniforms(flat_index % self.num_envs)
+            uniforms = self._draw_uniforms(flat_index, window)
             probability = -np.expm1(-pressure.ravel()[flat_index].astype(np.float64) / LOG_SCALE)
             ignites.ravel()[flat_index] = uniforms < probability
         # Burning cells always hold fuel, so fuel - burn_rate only needs clipping above 1.
@@ -243,7 +252,18 @@ class BatchedFire:
         self.steps += stepped
         self._shrink_window()
 
-    def _draw_uniforms(self, env_of_candidate: np.ndarray) -> np.ndarray:
+    def _draw_uniforms(self, flat_index: np.ndarray, window: tuple[slice, slice]) -> np.ndarray:
+        """One uniform per candidate, given by its index into the window's (h, w, E) storage."""
+        env = flat_index % self.num_envs
+        if self.geometry.is_paper:
+            return self._generator_uniforms(env)
+        # Counter-based: the candidate's map cell and the fire step it is drawn for.
+        width = window[1].stop - window[1].start
+        cell = flat_index // self.num_envs
+        row, col = cell // width + window[0].start, cell % width + window[1].start
+        return cell_uniforms(self._seeds[env], self.steps[env], row * self.geometry.cols + col)
+
+    def _generator_uniforms(self, env_of_candidate: np.ndarray) -> np.ndarray:
         """One uniform per candidate cell, each from its environment's own generator.
 
         Each environment draws as many numbers as it has candidates, in row-major cell order,
@@ -270,7 +290,7 @@ class BatchedFire:
     def _active_window(self) -> tuple[slice, slice]:
         """Rows and columns holding every burning cell with a stencil margin (all envs)."""
         if self._window is None:
-            self._window = self._burning_bounds(0, self.grid_size, 0, self.grid_size)
+            self._window = self._burning_bounds(0, self.geometry.rows, 0, self.geometry.cols)
         r0, r1, c0, c1 = self._window
         return slice(r0, r1), slice(c0, c1)
 
@@ -281,12 +301,12 @@ class BatchedFire:
         if rows.size == 0:
             return (0, 0, 0, 0)
         cols = np.flatnonzero(part.any(axis=(0, 2)))
-        m, n = STENCIL_RADIUS, self.grid_size
+        m = STENCIL_RADIUS
         return (
             max(r0 + int(rows[0]) - m, 0),
-            min(r0 + int(rows[-1]) + 1 + m, n),
+            min(r0 + int(rows[-1]) + 1 + m, self.geometry.rows),
             max(c0 + int(cols[0]) - m, 0),
-            min(c0 + int(cols[-1]) + 1 + m, n),
+            min(c0 + int(cols[-1]) + 1 + m, self.geometry.cols),
         )
 
     def _shrink_window(self) -> None:

@@ -39,4 +39,35 @@ def generator(seed: int, stream: Stream, *index: int) -> np.random.Generator:
     return np.random.Generator(np.random.PCG64(sequence))
 
 
-__all__ = ["Stream", "generator"]
+# SplitMix64's constants (Steele, Lea and Flood 2014): a bijective, well-mixing finaliser.
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX2 = np.uint64(0x94D049BB133111EB)
+
+
+def _mix(x: np.ndarray) -> np.ndarray:
+    """SplitMix64's finaliser, elementwise on uint64 (wrapping arithmetic)."""
+    x = (x ^ (x >> np.uint64(30))) * _MIX1
+    x = (x ^ (x >> np.uint64(27))) * _MIX2
+    return x ^ (x >> np.uint64(31))
+
+
+def cell_uniforms(seed: np.ndarray, step: np.ndarray, cell: np.ndarray) -> np.ndarray:
+    """Counter-based uniforms in [0, 1), one per (seed, fire step, cell index), float64.
+
+    Each number is a hash of its three counters only (SplitMix64 applied to each in turn),
+    so it does not depend on which other cells are drawn, in what order or in what cut of the
+    map: the fire of a field map can be stepped on its active region alone. Streams of
+    different seeds are independent in the sense of the hash's avalanche; this is the
+    "hash of the three" that the counter-based generators of the literature (Philox,
+    Threefry) do with more rounds.
+    """
+    with np.errstate(over="ignore"):
+        key = _mix(np.asarray(seed, dtype=np.uint64) * _GOLDEN + np.uint64(Stream.FIRE))
+        key = _mix(key ^ (np.asarray(step, dtype=np.uint64) + _GOLDEN))
+        key = _mix(key ^ (np.asarray(cell, dtype=np.uint64) * _GOLDEN))
+    # The top 53 bits give every double of [0, 1) on a 2**-53 lattice.
+    return (key >> np.uint64(11)).astype(np.float64) * (1.0 / 2**53)
+
+
+__all__ = ["Stream", "cell_uniforms", "generator"]

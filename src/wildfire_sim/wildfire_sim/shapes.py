@@ -1,8 +1,9 @@
 """Ignition seeds ("shapes") and fuel masks of the scenarios in the paper.
 
-Every shape is a pair of boolean ``(GRID_SIZE, GRID_SIZE)`` masks: the cells burning at
+Every shape is a pair of boolean ``(rows, cols)`` masks of the map: the cells burning at
 ignition and the cells that may hold fuel. Arbitrary masks are accepted by the fire model
-as well; these are the named ones.
+as well; these are the named ones. A shape keeps its size in cells on every map and sits at
+the map's centre cell (``rows // 2``, ``cols // 2``); on the paper's 100 x 100 map:
 
 * ``circular``: a 5 x 5 block burning at the grid centre (rows and columns 48..52, so the
   seed's centre is the centre of cell (50, 50), at (505 m, 505 m)).
@@ -21,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 
 from wildfire_sim.errors import FireConfigError
-from wildfire_sim.grid import GRID_SIZE
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 
 
 class Shape(StrEnum):
@@ -47,25 +48,25 @@ class ShapeMasks(NamedTuple):
     """Boolean masks of one scenario."""
 
     ignition: np.ndarray
-    """Cells burning at ignition, shape (GRID_SIZE, GRID_SIZE)."""
+    """Cells burning at ignition, shape (rows, cols)."""
     fuel: np.ndarray
-    """Cells that may hold fuel (others start with none), shape (GRID_SIZE, GRID_SIZE)."""
+    """Cells that may hold fuel (others start with none), shape (rows, cols)."""
 
 
-def shape_masks(shape: Shape | str, n: int = GRID_SIZE) -> ShapeMasks:
-    """Ignition and fuel masks of a named shape on an ``n`` x ``n`` grid."""
+def shape_masks(shape: Shape | str, geometry: MapGeometry = PAPER_MAP) -> ShapeMasks:
+    """Ignition and fuel masks of a named shape on the map ``geometry``."""
     shape = Shape.parse(shape) if isinstance(shape, str) else shape
-    centre = n // 2
-    ignition = np.zeros((n, n), dtype=bool)
-    fuel = np.ones((n, n), dtype=bool)
+    r, c = geometry.rows // 2, geometry.cols // 2
+    ignition = np.zeros(geometry.shape, dtype=bool)
+    fuel = np.ones(geometry.shape, dtype=bool)
     if shape in (Shape.CIRCULAR, Shape.ARC):
-        ignition[centre - 2 : centre + 3, centre - 2 : centre + 3] = True
+        ignition[r - 2 : r + 3, c - 2 : c + 3] = True
     if shape is Shape.ARC:
-        fuel[centre + 2 :, :] = False
+        fuel[r + 2 :, :] = False
     if shape is Shape.T:
         arm = 15
-        ignition[centre - arm : centre + arm + 1, centre - 1 : centre + 2] = True
-        ignition[centre - 1 : centre + 2, centre - arm : centre + 1] = True
+        ignition[r - arm : r + arm + 1, c - 1 : c + 2] = True
+        ignition[r - 1 : r + 2, c - arm : c + 1] = True
     return ShapeMasks(ignition=ignition, fuel=fuel)
 
 
