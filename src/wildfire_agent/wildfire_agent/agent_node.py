@@ -39,7 +39,7 @@ from wildfire_agent.agent_protocol import (
 from wildfire_agent.deadlines import PERIOD_S
 from wildfire_agent.dynamics import MAX_BANK_STEPS, AircraftState
 from wildfire_agent.errors import AgentConfigError
-from wildfire_agent.policy_names import BUILTIN_POLICIES, EXPECTED_POLICIES
+from wildfire_agent.policy_names import EXPECTED_POLICIES, has_network_file
 from wildfire_belief.sensors import SENSORS
 from wildfire_msgs_py import camera_codec, codecs, contract, radio_codec, system_codecs
 from wildfire_msgs_py.input_guard import InputGuard
@@ -114,7 +114,7 @@ class AgentNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("agent", **kwargs)
         p = declare_parameters(self, PARAMETERS)
-        if p["policy"] not in BUILTIN_POLICIES:  # a Q-network (obs, belief or a .pt file)
+        if has_network_file(p["policy"]):  # a Q-network (obs, belief or a .pt file)
             import torch
 
             torch.set_num_threads(p["torch_threads"])

@@ -2,8 +2,9 @@
 
 :class:`AircraftPolicy` flies aircraft ``k`` of a team of ``n`` with any policy name
 (``policy_names.make_policy``, the factory the environment policies use too): a
-receding-horizon planner (``rh`` or ``rh-paper``), uniformly random actions, or a TorchScript
-Q-network (``obs``, ``belief`` or a file). It calls the very functions
+receding-horizon planner (``rh`` or ``rh-paper``), uniformly random actions, a TorchScript
+Q-network (``obs``, ``belief`` or a file) or a vector policy of your own (``MODULE:ATTR``,
+``user_policy``). It calls the very functions
 ``wildfire_learning.env`` and ``wildfire_learning.vec_policies`` call, with the same shapes
 for the team arrays, so for the same inputs it picks the action the environment picks:
 
@@ -11,7 +12,11 @@ for the team arrays, so for the same inputs it picks the action the environment 
 * the planner sees the whole team ``(1, n)``, ownship ``k`` and the others in
   ``pairwise.other_indices`` order, on the true fire map of the tick;
 * a Q-network gets a batch of one image (``approaches``) and the ``K`` normalised pairwise
-  states of the ownship; with several other aircraft it sums the pairwise Q-values.
+  states of the ownship; with several other aircraft it sums the pairwise Q-values;
+* a vector policy of your own gets a one-episode environment (``user_policy.OneAircraftEnv``,
+  reset before its first decision, as evaluation resets it after the environment's reset)
+  and observations whose row ``k`` is the ownship's, made as for a Q-network (the other
+  rows are zeros: the policy is decentralised); its action ``[0, k]`` is flown.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy
 from wildfire_agent.policy_names import BUILTIN_POLICIES, make_policy
 from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
 from wildfire_agent.rewards import FireFieldMaps, ObservationRewardWeights, fire_field_maps
+from wildfire_agent.user_policy import OneAircraftEnv, VecPolicy, checked_actions
 from wildfire_msgs_py.belief_codec import believed_burning
 from wildfire_msgs_py.codecs import VisitWindow
 
@@ -51,10 +57,17 @@ class AircraftPolicy:
             raise AgentConfigError(f"aircraft {aircraft}: expected 0..{n_aircraft - 1}")
         self.aircraft = aircraft
         self.n_aircraft = n_aircraft
+        self.seed = seed
+        self.name = policy
         self.weights = weights or ObservationRewardWeights()
         factory = make_policy(policy, rh_config)
         self.observation = factory.observation
-        self.policy = factory.build([seed], [aircraft], n_aircraft, self.weights)
+        self.user: VecPolicy | None = factory.user
+        """A vector policy of your own (then :attr:`policy` is None)."""
+        self.user_reset = False
+        self.policy = (
+            None if self.user else factory.build([seed], [aircraft], n_aircraft, self.weights)
+        )
         if factory.network is not None:
             factory.network.check_sensor(sensor)
         self.camera_view = sees_cameras(self.observation, sensor)
@@ -108,6 +121,8 @@ class AircraftPolicy:
         if isinstance(self.policy, RandomPolicy):
             return int(self.policy.act()[0])
         team_2d = AircraftState(*(np.asarray(field)[None] for field in team))  # (1, n)
+        if self.policy is None:
+            return self.user_action(team_2d, burning, belief, age_s, reports)
         if isinstance(self.policy, RecedingHorizonPolicy):
             others = pairwise.other_indices(self.n_aircraft)[k]
             own = AircraftState(*(field[0, k : k + 1] for field in team_2d))
@@ -125,17 +140,54 @@ class AircraftPolicy:
                 maps = self._belief_maps
             return int(self.policy.act(own, peers, np.zeros(1, dtype=np.int64), maps)[0])
         network: TorchScriptPolicy = self.policy
-        states = pairwise.normalise(pairwise.pairwise_states(team_2d))[0, k : k + 1]
-        if self.camera_view:
-            image = self.camera_image(team_2d, reports)
-        elif self.observation == Approach.OBS:
-            image = sensor_images(burning[None], team_2d)[0, k : k + 1]
-        else:
-            if belief is None or age_s is None:
-                raise ValueError("a belief-based policy needs the belief and its ages")
-            ownship = AircraftState(*(field[:, k : k + 1] for field in team_2d))
-            image = belief_images(belief[None], age_s[None], ownship)[0]
+        image, states = self.observe(team_2d, burning, belief, age_s, reports)
+        assert image is not None
         return int(network.act(image, states)[0])
+
+    def observe(
+        self,
+        team_2d: AircraftState,
+        burning: np.ndarray,
+        belief: np.ndarray | None,
+        age_s: np.ndarray | None,
+        reports: Sequence[VisitWindow] | None,
+    ) -> tuple[np.ndarray | None, np.ndarray]:
+        """The ownship's image (1, C, H, W), None for the observation ``none``, and its
+        normalised pairwise states (1, K, 5): its row of the environment's observations."""
+        k = self.aircraft
+        states = pairwise.normalise(pairwise.pairwise_states(team_2d))[0, k : k + 1]
+        if self.observation not in (Approach.OBS, Approach.BELIEF):
+            return None, states
+        if self.camera_view:
+            return self.camera_image(team_2d, reports), states
+        if self.observation == Approach.OBS:
+            return sensor_images(burning[None], team_2d)[0, k : k + 1], states
+        if belief is None or age_s is None:
+            raise ValueError("a belief-based policy needs the belief and its ages")
+        ownship = AircraftState(*(field[:, k : k + 1] for field in team_2d))
+        return belief_images(belief[None], age_s[None], ownship)[0], states
+
+    def user_action(
+        self,
+        team_2d: AircraftState,
+        burning: np.ndarray,
+        belief: np.ndarray | None,
+        age_s: np.ndarray | None,
+        reports: Sequence[VisitWindow] | None,
+    ) -> int:
+        """The ownship's action from a vector policy of your own (see the module docstring)."""
+        assert self.user is not None
+        k, n = self.aircraft, self.n_aircraft
+        env = OneAircraftEnv.of(self.seed, team_2d)
+        if not self.user_reset:
+            self.user.reset(env)
+            self.user_reset = True
+        image, states = self.observe(team_2d, burning, belief, age_s, reports)
+        observations = {"state": own_row(states, k, n)}
+        if image is not None:
+            observations["image"] = own_row(image, k, n)
+        actions = checked_actions(self.user.act(env, observations), (1, n), self.name)
+        return int(actions[0, k])
 
     def camera_image(
         self, team_2d: AircraftState, reports: Sequence[VisitWindow] | None
@@ -150,4 +202,11 @@ class AircraftPolicy:
         return camera_view.camera_images(codes[None], row0[None], col0[None], ownship)[0]
 
 
-__all__ = ["BUILTIN", "AircraftPolicy"]
+def own_row(values: np.ndarray, k: int, n: int) -> np.ndarray:
+    """(1, n, ...) zeros with row ``k`` set to ``values`` (1, ...)."""
+    rows = np.zeros((1, n, *values.shape[1:]), dtype=values.dtype)
+    rows[0, k] = values[0]
+    return rows
+
+
+__all__ = ["BUILTIN", "AircraftPolicy", "own_row"]

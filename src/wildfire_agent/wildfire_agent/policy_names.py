@@ -16,7 +16,9 @@
   (``--sensor camera --pixel-error 0.1``: the filtered belief; ``models/belief_camera_policy.pt``);
 * ``obs-camera`` — the shipped observation network of that world: it sees its own four noisy
   camera images (``camera_view``; ``models/obs_camera_policy.pt``);
-* anything ending in ``.pt`` or naming an existing file — a TorchScript Q-network.
+* anything ending in ``.pt`` or naming an existing file — a TorchScript Q-network;
+* ``MODULE:ATTR`` — a vector policy from outside the project (``user_policy`` documents the
+  protocol and resolves the name).
 
 A policy flies a set of aircraft: one for an agent node's aircraft policy, every aircraft of every
 episode for an environment policy. Either way aircraft ``k`` of episode ``s`` draws its
@@ -45,6 +47,13 @@ from wildfire_agent.receding_horizon import (
     replan_phases,
 )
 from wildfire_agent.rewards import ObservationRewardWeights
+from wildfire_agent.user_policy import (
+    USER_POLICY_FORM,
+    VecPolicy,
+    is_user_policy,
+    load_user_policy,
+    module_file,
+)
 from wildfire_sim.seeding import Stream, generator
 
 BELIEF_PLANNER = "rh-belief"
@@ -63,8 +72,8 @@ SHIPPED_POLICIES = (*APPROACHES, RADIO_POLICY, CAMERA_POLICY, OBS_CAMERA_POLICY)
 """Names of the shipped Q-networks (one per approach, the belief network trained under
 limited radio links, and both approaches trained under camera sensing)."""
 EXPECTED_POLICIES = (
-    "rh, rh-paper, rh-belief, random, obs, belief, belief-radio, belief-camera, obs-camera or "
-    "a TorchScript .pt file"
+    "rh, rh-paper, rh-belief, random, obs, belief, belief-radio, belief-camera, obs-camera, "
+    f"a TorchScript .pt file or {USER_POLICY_FORM} (a vector policy of your own)"
 )
 """How an error message names what a policy may be."""
 ORACLE_POLICY = "oracle"
@@ -102,6 +111,22 @@ def is_policy_file(policy: str) -> bool:
     return policy.endswith(".pt") or Path(policy).exists()
 
 
+def has_network_file(name: str) -> bool:
+    """True when ``name`` is a Q-network (a shipped name or a ``.pt`` file): it has a file,
+    a model card and bytes a remote worker is sent."""
+    return is_policy_file(name) or (name not in FILELESS_POLICIES and not is_user_policy(name))
+
+
+def policy_source(name: str) -> Path | None:
+    """The file a policy's results depend on beyond the project's code: a Q-network's, or a
+    policy of your own's module; None for the built-in policies."""
+    if has_network_file(name):
+        return resolve_policy_path(name)
+    if is_user_policy(name):
+        return module_file(name)
+    return None
+
+
 def resolve_policy_path(name: str) -> Path:
     """Path of a Q-network given as a shipped name (``belief-radio`` is
     ``belief_radio_policy.pt``) or a file path."""
@@ -125,10 +150,14 @@ class PolicyFactory:
     """Planner settings of ``rh`` / ``rh-paper``."""
     network: TorchScriptPolicy | None = None
     """The Q-network of ``obs``, ``belief`` or a file."""
+    user: VecPolicy | None = None
+    """A vector policy of your own (``MODULE:ATTR``), built once."""
 
     @property
     def observation(self) -> str:
         """What the policy looks at: ``obs``, ``belief`` or ``none`` (poses and truth only)."""
+        if self.user is not None:
+            return str(self.user.observation)
         return "none" if self.network is None else self.network.approach
 
     def build(
@@ -139,7 +168,10 @@ class PolicyFactory:
         weights: ObservationRewardWeights | None = None,
     ) -> Policy:
         """The policy flying ``aircraft`` (team indices, of ``n_aircraft``) of each episode of
-        ``seeds``, environment-major; ``weights`` are the planner's reward weights."""
+        ``seeds``, environment-major; ``weights`` are the planner's reward weights. A policy
+        of your own flies itself (:attr:`user`)."""
+        if self.user is not None:
+            raise ValueError("a vector policy of your own is flown as it is, not built")
         if self.network is not None:
             return self.network  # greedy: no randomness to seed
         aircraft = np.asarray(aircraft, dtype=np.int64)
@@ -168,6 +200,8 @@ def make_policy(
         return PolicyFactory()
     if name in SHIPPED_POLICIES or is_policy_file(name):
         return PolicyFactory(network=TorchScriptPolicy(resolve_policy_path(name), device=device))
+    if is_user_policy(name):
+        return PolicyFactory(user=load_user_policy(name))
     raise AgentConfigError(f"unknown policy {name!r}: expected {EXPECTED_POLICIES}")
 
 
@@ -186,8 +220,11 @@ __all__ = [
     "SHIPPED_POLICIES",
     "Policy",
     "PolicyFactory",
+    "has_network_file",
     "is_policy_file",
+    "is_user_policy",
     "make_policy",
     "planner_config",
+    "policy_source",
     "resolve_policy_path",
 ]

@@ -11,7 +11,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from wildfire_agent.policy_names import FILELESS_POLICIES, resolve_policy_path
+from wildfire_agent.policy_names import policy_source
 from wildfire_cli.common import (
     UserError,
     add_comm_argument,
@@ -177,8 +177,7 @@ def collect_results(
     for scenario in scenarios:
         config = replace(base, n_aircraft=scenario.aircraft, shapes=(scenario.shape,))
         for policy in policies:
-            builtin = policy in FILELESS_POLICIES
-            policy_file = None if builtin else resolve_policy_path(policy)
+            policy_file = policy_source(policy)  # a network's file, or your policy's module
             identity = fingerprint(
                 policy,
                 policy_file,

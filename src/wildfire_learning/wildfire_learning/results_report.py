@@ -33,6 +33,7 @@ from wildfire_agent.policy_names import (
     ORACLE_POLICY,
     RADIO_POLICY,
     SHIPPED_POLICIES,
+    is_user_policy,
     resolve_policy_path,
 )
 from wildfire_belief.radio import IDEAL, CommModel
@@ -113,8 +114,11 @@ class Scenario:
 
 
 def policy_id(policy: str) -> str:
-    """Short name of a policy in file names: its own, or a policy file's stem."""
-    return policy if policy in POLICY_LABELS else Path(policy).stem
+    """Short name of a policy in file names: its own, a policy file's stem, or the ATTR of
+    a policy of your own (``MODULE:ATTR``)."""
+    if policy in POLICY_LABELS:
+        return policy
+    return policy.rpartition(":")[2] if is_user_policy(policy) else Path(policy).stem
 
 
 def policy_label(policy: str) -> str:

@@ -3,7 +3,8 @@
 Each wraps, for the whole batch, the policy that ``wildfire_agent.policy_names.make_policy``
 builds from a policy name (the factory an agent's aircraft policy uses too): a
 receding-horizon planner (``rh`` or ``rh-paper``), the random policy, or a TorchScript
-Q-network. Per-aircraft
+Q-network; a vector policy of your own (``MODULE:ATTR``, ``wildfire_agent.user_policy``) flies
+as it is, its actions checked. Per-aircraft
 randomness comes from ``seeding.Stream.AIRCRAFT`` of the episode seed, so an aircraft flies
 the same in a batch of 20 episodes, alone, or as its own agent node.
 """
@@ -17,6 +18,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from wildfire_agent import user_policy
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.pairwise import other_indices
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy, greedy_actions_and_values
@@ -175,6 +177,24 @@ class GreedyVecPolicy:
         return actions.reshape(e, n)
 
 
+class UserVecPolicy:
+    """A vector policy of your own (``MODULE:ATTR``), its actions checked each decision."""
+
+    def __init__(self, name: str, policy: user_policy.VecPolicy) -> None:
+        self.name = name
+        self.policy = policy
+        self.observation = str(policy.observation)
+
+    def reset(self, env: WildfireVecEnv) -> None:
+        self.policy.reset(env)
+
+    def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
+        actions = self.policy.act(env, observations)
+        return user_policy.checked_actions(
+            actions, (env.num_envs, env.config.n_aircraft), self.name
+        )
+
+
 def check_world(policy: VecPolicy, config: EnvConfig) -> None:
     """Refuse (one line) a world ``policy`` cannot fly: its observation there, or a network
     trained on other images."""
@@ -195,6 +215,8 @@ def make_vec_policy(
     if policy == ORACLE_POLICY:
         return OracleVecPolicy(incumbent=lambda name: make_vec_policy(name, rh_config, device))
     factory = make_policy(policy, rh_config, device)
+    if factory.user is not None:
+        return UserVecPolicy(policy, factory.user)
     if factory.network is not None:
         return QNetworkVecPolicy(factory.network)
     if factory.planner is not None:
@@ -207,6 +229,7 @@ __all__ = [
     "QNetworkVecPolicy",
     "RandomVecPolicy",
     "RecedingHorizonVecPolicy",
+    "UserVecPolicy",
     "build_for",
     "check_world",
     "make_vec_policy",
