@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from wildfire_agent.policy_names import FILELESS_POLICIES, resolve_policy_path
+from wildfire_agent.policy_names import has_network_file, resolve_policy_path
 from wildfire_belief.radio import IDEAL, CommModel
 from wildfire_belief.sensors import noisy
 from wildfire_cli.common import (
@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     shape = Shape.parse(args.shape)
     device = resolve_device(args.device)
     vec_policy = make_vec_policy(args.policy, device=device)  # a bad name or file fails now
-    if args.card and args.policy in FILELESS_POLICIES:
+    if args.card and not has_network_file(args.policy):
         raise UserError(f"--card: policy {args.policy} has no model card (a Q-network has)")
     config = EnvConfig(
         shapes=(shape.value,), observation=vec_policy.observation, **scenario_settings(args)

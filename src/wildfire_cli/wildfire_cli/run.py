@@ -102,8 +102,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def resolve_policy(policy: str, config: Any) -> str:
-    """``rh``/``rh-paper``/``random`` as is; ``obs``/``belief``/``.pt`` checked (against the
-    world of the run's ``EnvConfig``) and made absolute."""
+    """``rh``/``rh-paper``/``random`` as is; ``obs``/``belief``/``.pt`` and ``MODULE:ATTR``
+    checked (against the world of the run's ``EnvConfig``) and a file made absolute."""
     from dataclasses import replace
 
     from wildfire_agent.policies import TorchScriptPolicy
@@ -113,8 +113,10 @@ def resolve_policy(policy: str, config: Any) -> str:
         EXPECTED_POLICIES,
         SHIPPED_POLICIES,
         is_policy_file,
+        is_user_policy,
         resolve_policy_path,
     )
+    from wildfire_agent.user_policy import load_user_policy
 
     if policy in BUILTIN_POLICIES:
         return policy
@@ -123,6 +125,13 @@ def resolve_policy(policy: str, config: Any) -> str:
             f"--policy {policy!r}: expected {EXPECTED_POLICIES} ({policy} reads the fire's "
             "future: `wildfire eval` and `wildfire report` only)"
         )
+    if is_user_policy(policy) and not is_policy_file(policy):
+        # Checked here, in one line, rather than in every agent; a file is made absolute
+        # for the agents' processes, a module is imported from this working directory.
+        vec_policy = load_user_policy(policy)
+        replace(config, observation=vec_policy.observation).validate()
+        module, _, attr = policy.rpartition(":")
+        return f"{Path(module).resolve()}:{attr}" if module.endswith(".py") else policy
     if policy not in SHIPPED_POLICIES and not is_policy_file(policy):
         raise UserError(f"--policy {policy!r}: expected {EXPECTED_POLICIES}")
     path = resolve_policy_path(policy).resolve()

@@ -41,9 +41,9 @@ from pathlib import Path
 from typing import Any
 
 from wildfire_agent.policy_names import (
-    FILELESS_POLICIES,
     ORACLE_POLICY,
     PLANNER_POLICIES,
+    has_network_file,
     resolve_policy_path,
 )
 from wildfire_learning.env import EnvConfig
@@ -103,8 +103,8 @@ def make_tasks(jobs: Sequence[EvalJob], parts: int) -> list[EvalTask]:
     tasks = []
     for index, job in enumerate(jobs):
         if job.policy not in files:
-            builtin = job.policy in FILELESS_POLICIES
-            files[job.policy] = None if builtin else resolve_policy_path(job.policy).read_bytes()
+            network = has_network_file(job.policy)  # a policy of your own is imported there
+            files[job.policy] = resolve_policy_path(job.policy).read_bytes() if network else None
         for i, seeds in enumerate(split_seeds(job.seeds, parts)):
             tasks.append(
                 EvalTask(
