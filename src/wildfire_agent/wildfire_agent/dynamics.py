@@ -132,20 +132,23 @@ def step(state: AircraftState, action: np.ndarray) -> AircraftState:
 def start_poses(
     rng: np.random.Generator,
     n_aircraft: int,
-    fire_centre_m: tuple[float, float],
+    fire_centre_m: tuple[float, float] | np.ndarray,
     min_range_m: float = 150.0,
     max_range_m: float = 300.0,
 ) -> AircraftState:
     """Start poses: uniform range and bearing around the fire, uniform heading.
 
-    Draws, per aircraft, range then bearing then heading from ``rng``; bank is 0.
+    ``fire_centre_m`` is one (x, y) or one per aircraft, (N, 2) (several fires: each
+    aircraft around its own). Draws, per aircraft, range then bearing then heading from
+    ``rng``; bank is 0.
     """
     draws = rng.random((n_aircraft, 3))
     distance = min_range_m + (max_range_m - min_range_m) * draws[:, 0]
     bearing = 2.0 * np.pi * draws[:, 1]
+    centre = np.asarray(fire_centre_m, dtype=np.float64)
     return AircraftState(
-        x_m=fire_centre_m[0] + distance * np.cos(bearing),
-        y_m=fire_centre_m[1] + distance * np.sin(bearing),
+        x_m=centre[..., 0] + distance * np.cos(bearing),
+        y_m=centre[..., 1] + distance * np.sin(bearing),
         heading_rad=wrap_angle(2.0 * np.pi * draws[:, 2]),
         bank_steps=np.zeros(n_aircraft, dtype=np.int64),
     )

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 from typing import Any, NoReturn
 
 import numpy as np
@@ -19,6 +20,7 @@ from wildfire_msgs_py.map_geometry import (
     MapGeometryError,
 )
 from wildfire_sim.defaults import EPISODE_DEFAULTS
+from wildfire_sim.landscape import Landscape
 
 
 class UserError(Exception):
@@ -140,20 +142,86 @@ def map_size(text: str) -> MapGeometry:
 
 
 def add_map_arguments(parser: argparse.ArgumentParser | argparse._ActionsContainer) -> None:
-    """The map's options (``map_settings`` reads them)."""
+    """The map's and the fire start's options (``map_settings`` and ``landscape_of`` read
+    them)."""
     parser.add_argument(
         "--map-size",
         type=map_size,
-        default=PAPER_MAP,
+        default=None,
         metavar="R,C",
         help=f"rows and columns of 10 m cells, each in [{MIN_SIDE}, {MAX_SIDE}] (default "
-        f"{PAPER_MAP.text}: the paper's 1 km square); named shapes sit at the map's centre",
+        f"{PAPER_MAP.text}: the paper's 1 km square, or a fuel map's extent); named shapes "
+        "sit at the map's centre",
     )
+    parser.add_argument(
+        "--fuel-map",
+        type=Path,
+        metavar="FILE",
+        help="fuel from a GeoTIFF (projected CRS in metres, resampled to 10 m cells) or a .npy "
+        "(10 m cells, row 0 south): band 1 is fuel in fire steps (0..127), or class codes "
+        "with --fuel-classes; nodata and 0 burn nothing",
+    )
+    parser.add_argument(
+        "--fuel-classes",
+        metavar="TABLE",
+        help="the fuel map holds land-cover classes: corine, fbfm13 or a YAML table "
+        "(class -> fuel range, spread multiplier)",
+    )
+    starts = parser.add_mutually_exclusive_group()
+    starts.add_argument(
+        "--ignition-map",
+        type=Path,
+        metavar="FILE",
+        help="cells burning at the start: nonzero cells of a GeoTIFF or .npy on the map",
+    )
+    starts.add_argument(
+        "--ignitions",
+        type=non_negative_int,
+        default=0,
+        metavar="K",
+        help="light K seeded 5 x 5 blocks on cells with fuel instead of the shape",
+    )
+    parser.add_argument(
+        "--preburn-area",
+        type=positive_float,
+        default=None,
+        metavar="M2",
+        help="pre-burn until the fire has touched M2 square metres (default: 30 fire steps)",
+    )
+
+
+def landscape_of(args: argparse.Namespace) -> Landscape | None:
+    """The landscape of ``add_map_arguments``; None for the paper's fuel and shapes."""
+    from wildfire_sim.fuel_map import FuelTable, read_fuel_map, read_ignition_map
+
+    geometry: MapGeometry | None = args.map_size
+    if args.fuel_classes is not None and args.fuel_map is None:
+        raise UserError("--fuel-classes: expected a --fuel-map to read them from")
+    fuel = None
+    if args.fuel_map is not None:
+        classes = FuelTable.named(args.fuel_classes) if args.fuel_classes else None
+        fuel = read_fuel_map(args.fuel_map, classes)
+        if geometry is None:
+            geometry = fuel.geometry
+        elif geometry != fuel.geometry:
+            fuel = fuel.cropped(geometry)
+    geometry = geometry or PAPER_MAP
+    if fuel is None and args.ignition_map is None and not args.ignitions:
+        return None
+    ignition = None if args.ignition_map is None else read_ignition_map(args.ignition_map, geometry)
+    return Landscape(geometry, fuel, ignition, args.ignitions)
 
 
 def map_settings(args: argparse.Namespace) -> dict[str, Any]:
     """``EnvConfig`` fields of ``add_map_arguments``."""
-    return {"geometry": args.map_size}
+    landscape = landscape_of(args)
+    settings: dict[str, Any] = {
+        "geometry": landscape.geometry if landscape else args.map_size or PAPER_MAP,
+        "landscape": landscape,
+    }
+    if args.preburn_area is not None:
+        settings["preburn_area_m2"] = args.preburn_area
+    return settings
 
 
 CAMERA_PIXEL_ERROR = 0.1

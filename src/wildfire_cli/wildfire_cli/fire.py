@@ -1,16 +1,27 @@
-"""``wildfire fire``: simulate the fire model alone, from ignition (no pre-burn)."""
+"""``wildfire fire``: simulate the fire model alone, from ignition (no pre-burn unless
+``--preburn-area``), on any map and landscape."""
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 
-from wildfire_cli.common import non_negative_int, positive_int, print_json, wind_vector
+from wildfire_cli.common import (
+    add_map_arguments,
+    landscape_of,
+    non_negative_int,
+    positive_int,
+    print_json,
+    wind_vector,
+)
 from wildfire_cli.progress import progress_bar
+from wildfire_sim.episode import EPISODE_DEFAULTS, preburn
 from wildfire_sim.fire import BatchedFire
-from wildfire_sim.grid import CELL_SIZE_M
-from wildfire_sim.shapes import Shape, shape_masks
+from wildfire_sim.grid import CELL_SIZE_M, PAPER_MAP
+from wildfire_sim.landscape import Landscape
+from wildfire_sim.shapes import Shape
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -30,21 +41,34 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     )
     parser.add_argument("--steps", type=non_negative_int, default=60, metavar="K")
     parser.add_argument("--seeds", type=positive_int, default=10, metavar="N")
+    add_map_arguments(parser)
     parser.add_argument("--png", metavar="FILE", help="draw the fire of seed 0 over time")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        metavar="FILE.npz",
+        help="save the final burning (N, R, C) bool and fuel (N, R, C) int8 of every seed, in "
+        "the map's [row, col] layout (row 0 south, 10 m cells)",
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    masks = shape_masks(Shape.parse(args.shape))
-    fire = BatchedFire(args.seeds)
+    shape = Shape.parse(args.shape)
+    landscape = landscape_of(args) or Landscape(args.map_size or PAPER_MAP)
+    seeds = np.arange(args.seeds)
+    starts = [landscape.start(shape, int(seed), EPISODE_DEFAULTS.border_cells) for seed in seeds]
+    fire = BatchedFire(args.seeds, geometry=landscape.geometry, fuel_map=landscape.fuel)
     fire.reset(
-        np.arange(args.seeds),
-        np.arange(args.seeds),
-        masks.ignition,
-        masks.fuel,
+        seeds,
+        seeds,
+        np.stack([start.ignition for start in starts]),
+        np.stack([start.fuel for start in starts]),
         np.asarray(args.wind),
     )
+    if args.preburn_area is not None:
+        preburn(fire, np.ones(args.seeds, dtype=bool), 0, args.preburn_area)
     mean_burning: list[float] = []
     mean_affected: list[float] = []
     snapshot_steps = set(np.linspace(0, args.steps, 4).round().astype(int).tolist())
@@ -74,8 +98,13 @@ def run(args: argparse.Namespace) -> int:
         plot_fire_propagation(
             frames, args.png, f"{args.shape} fire, wind {args.wind[0]:+.2f},{args.wind[1]:+.2f}"
         )
+    if args.out is not None:
+        np.savez_compressed(
+            args.out, burning=fire.burning, fuel=fire.fuel, seeds=seeds, cell_size_m=CELL_SIZE_M
+        )
     summary = {
-        "shape": Shape.parse(args.shape).value,
+        **landscape.summary(),
+        "shape": shape.value,
         "wind": list(args.wind),
         "steps": args.steps,
         "seeds": args.seeds,
@@ -93,6 +122,7 @@ def run(args: argparse.Namespace) -> int:
             f"({args.steps * 2.5:.0f} s): {last_burning:.0f} cells burning, "
             f"{last_affected:.0f} affected, centroid ({centroid[0]:.0f}, {centroid[1]:.0f}) m"
         )
-        if args.png:
-            print(f"wrote {args.png}")
+        for path in (args.png, args.out):
+            if path:
+                print(f"wrote {path}")
     return 0

@@ -23,9 +23,12 @@ Rewards
     score increment, docs/model.md, Evaluation) is returned too, and ``scores`` accumulates it.
 Starting state
     Episode seed -> shape (uniform over ``shapes``), wind (uniform in [-max_wind, max_wind]^2
-    unless fixed), fuel, start poses 150-300 m around the seed at uniform bearing and heading.
-    The fire pre-burns ``preburn_steps`` fire steps; the belief starts as the ignition seed
-    with every age at 255 s.
+    unless fixed), fuel, start poses 150-300 m around the seed at uniform bearing and heading
+    (with several fires, aircraft k around fire k mod K: ``shapes.start_centres_m``).
+    The fire starts as the landscape says (``wildfire_sim.landscape``: a fuel raster, an
+    ignition raster or ``ignitions`` seeded blocks; by default the paper's fuel and the
+    named shape) and pre-burns ``preburn_steps`` fire steps, or until it has touched
+    ``preburn_area_m2``; the belief starts as the ignition seed with every age at 255 s.
 Episode end
     The rules of ``wildfire_sim.episode`` (the one rule book): terminated when, after a fire
     step, a burning cell lies within ``border_cells`` of the map edge; truncated after
@@ -80,11 +83,13 @@ from wildfire_sim.episode import (
     EPISODE_DEFAULTS,
     decisions_in,
     fire_at_border,
+    preburn,
 )
 from wildfire_sim.fire import BatchedFire, FireParams
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
+from wildfire_sim.landscape import Landscape
 from wildfire_sim.seeding import Stream, generator
-from wildfire_sim.shapes import Shape, seed_centre_m, shape_masks
+from wildfire_sim.shapes import Shape, ShapeMasks, start_centres_m
 
 OBSERVATION_KINDS = (*APPROACHES, "none")
 REWARD_KINDS = APPROACHES
@@ -98,6 +103,9 @@ class EnvConfig:
     """Aircraft per episode."""
     geometry: MapGeometry = PAPER_MAP
     """The map: rows and columns of 10 m cells (``--map-size``; the paper's 100 x 100)."""
+    landscape: Landscape | None = None
+    """Fuel raster and starting fire on ``geometry`` (``--fuel-map``, ``--ignition-map``,
+    ``--ignitions``); None: the paper's homogeneous fuel and the named shapes."""
     observation: str = "obs"
     """``obs`` (sensor image), ``belief`` (ego belief image) or ``none``."""
     reward: str = "obs"
@@ -110,6 +118,8 @@ class EnvConfig:
     """Bound of each random wind component."""
     preburn_steps: int = EPISODE_DEFAULTS.preburn_steps
     """Fire steps before the aircraft start."""
+    preburn_area_m2: float = 0.0
+    """With > 0, pre-burn until the fire has touched this area instead (``--preburn-area``)."""
     max_duration_s: float = EPISODE_DEFAULTS.duration_s
     """Truncation time of the flight."""
     border_cells: int = EPISODE_DEFAULTS.border_cells
@@ -157,6 +167,18 @@ class EnvConfig:
             raise LearningError(f"duration: expected > 0 s, got {self.max_duration_s}")
         if self.preburn_steps < 0:
             raise LearningError(f"preburn_steps: expected >= 0, got {self.preburn_steps}")
+        if not self.preburn_area_m2 >= 0:
+            raise LearningError(f"preburn area: expected >= 0 m2, got {self.preburn_area_m2}")
+        if self.preburn_area_m2 > 0 and self.noisy:
+            # The filtered belief predicts the pre-burn from the episode's rules; a pre-burn
+            # to an area lasts as long as the draws make it.
+            raise LearningError(
+                "--preburn-area: not with noisy sensing yet (its belief predicts a fixed pre-burn)"
+            )
+        if self.landscape is not None and self.landscape.geometry != self.geometry:
+            raise LearningError(
+                f"landscape: {self.landscape.geometry.text} cells on a {self.geometry.text} map"
+            )
         if self.sensor not in sensors.SENSORS:
             raise LearningError(f"sensor: expected one of {sensors.SENSORS}, got {self.sensor!r}")
         if not 0.0 <= self.pixel_error < 0.5:
@@ -176,6 +198,11 @@ class EnvConfig:
         return self
 
     @property
+    def ground(self) -> Landscape:
+        """The landscape the fires start on (the paper's fuel on ``geometry`` by default)."""
+        return self.landscape or Landscape(self.geometry)
+
+    @property
     def camera_view(self) -> bool:
         """The observation approach sees its camera images and is rewarded from its reports
         (``wildfire_agent.camera_view``) instead of the true fire. (Evaluation of other
@@ -193,6 +220,8 @@ class Scenario(NamedTuple):
     shape: Shape
     wind: np.ndarray
     start: AircraftState
+    masks: ShapeMasks
+    """Cells burning at ignition and cells that may hold fuel (the landscape's start)."""
 
 
 def draw_scenario(seed: int, config: EnvConfig) -> Scenario:
@@ -201,10 +230,11 @@ def draw_scenario(seed: int, config: EnvConfig) -> Scenario:
     shape = Shape.parse(config.shapes[int(rng.integers(len(config.shapes)))])
     drawn_wind = rng.uniform(-config.max_wind, config.max_wind, size=2)
     wind = np.asarray(config.wind, dtype=np.float64) if config.wind is not None else drawn_wind
-    centre = seed_centre_m(shape_masks(shape, config.geometry).ignition)
+    masks = config.ground.start(shape, seed, config.border_cells)
+    centres = start_centres_m(masks.ignition, config.n_aircraft)
     low, high = config.start_range_m
-    start = dynamics.start_poses(rng, config.n_aircraft, centre, low, high)
-    return Scenario(shape=shape, wind=wind, start=start)
+    start = dynamics.start_poses(rng, config.n_aircraft, centres, low, high)
+    return Scenario(shape=shape, wind=wind, start=start, masks=masks)
 
 
 class StepResult(NamedTuple):
@@ -231,7 +261,7 @@ class WildfireVecEnv:
         self.num_envs = num_envs
         n = config.n_aircraft
         self.geometry = config.geometry
-        self.fire = BatchedFire(num_envs, config.fire, config.geometry)
+        self.fire = BatchedFire(num_envs, config.fire, config.geometry, config.ground.fuel)
         self.belief = SharedBelief(num_envs, config.geometry)
         self.aircraft = AircraftState(
             x_m=np.zeros((num_envs, n)),
@@ -278,7 +308,7 @@ class WildfireVecEnv:
         if np.any(seeds < 0):
             raise LearningError("seed: expected numbers >= 0")
         scenarios = [draw_scenario(int(seed), self.config) for seed in seeds]
-        masks = [shape_masks(s.shape, self.geometry) for s in scenarios]
+        masks = [s.masks for s in scenarios]
         self.fire.reset(
             env_ids,
             seeds,
@@ -292,10 +322,10 @@ class WildfireVecEnv:
         if self.sensing is not None:
             fuel = np.stack([m.fuel for m in masks])
             self.sensing.reset(env_ids, seeds, self.fire.burning[env_ids], fuel)
-        preburn = np.zeros(self.num_envs, dtype=bool)
-        preburn[env_ids] = True
-        for _ in range(self.config.preburn_steps):
-            self.fire.step(preburn)
+        starting = np.zeros(self.num_envs, dtype=bool)
+        starting[env_ids] = True
+        c = self.config
+        preburn(self.fire, starting, c.preburn_steps, c.preburn_area_m2, c.border_cells)
         for k, (env, scenario) in enumerate(zip(env_ids.tolist(), scenarios, strict=True)):
             for field_now, field_start in zip(self.aircraft, scenario.start, strict=True):
                 field_now[env] = field_start

@@ -4,7 +4,9 @@ Every episode — :class:`FireEpisode` here (the fire-simulator node), the train
 environment ``wildfire_learning.env.WildfireVecEnv`` and the transitions rebuilt from bags
 (``wildfire_learning.bag_transitions``) — follows these rules, written only here:
 
-* the fire resets from the seed and pre-burns ``preburn_steps`` fire steps;
+* the fire starts as its landscape says (:meth:`wildfire_sim.landscape.Landscape.start`) and
+  pre-burns (:func:`preburn`): ``preburn_steps`` fire steps, or with ``preburn_area_m2`` until
+  the fire has touched that area (so a field episode starts on a fire of realistic size);
 * each decision increments the counter and every ``DECISIONS_PER_FIRE_STEP``-th decision
   steps the fire;
 * after a fire step (and after the pre-burn) the episode is *terminated* when a burning cell
@@ -24,6 +26,7 @@ import numpy as np
 
 # A tick's stamp is the wire's: every node and message shares one decision clock.
 from wildfire_msgs_py.contract import DECISION_PERIOD_NS
+from wildfire_msgs_py.map_geometry import CELL_SIZE_M
 from wildfire_sim.defaults import EPISODE_DEFAULTS, EpisodeDefaults
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.shapes import Shape, shape_masks
@@ -85,6 +88,35 @@ def stamp_ceiling_ns(status_tick: int) -> int:
     """Lockstep: the newest stamp an honest input can carry once tick ``status_tick`` (-1:
     none yet) is announced."""
     return (max(status_tick, 0) + AHEAD_TICKS) * DECISION_PERIOD_NS
+
+
+MAX_PREBURN_STEPS = 4000
+"""A pre-burn to an area stops after this many fire steps (2.8 h) even if it is not reached."""
+
+
+def preburn(
+    fire: BatchedFire,
+    envs: np.ndarray,
+    steps: int,
+    area_m2: float = 0.0,
+    border_cells: int = EPISODE_DEFAULTS.border_cells,
+) -> None:
+    """Pre-burn the fires of ``envs`` ((E,) bool): ``steps`` fire steps, or with
+    ``area_m2 > 0`` until each has touched that area (burning or burnt cells), gone out,
+    reached the border band or burnt :data:`MAX_PREBURN_STEPS` steps."""
+    if area_m2 <= 0:
+        for _ in range(steps):
+            fire.step(envs)
+        return
+    cells = area_m2 / (CELL_SIZE_M * CELL_SIZE_M)
+    active = np.asarray(envs, dtype=bool).copy()
+    for _ in range(MAX_PREBURN_STEPS):
+        burning = fire.burning
+        active &= (fire.affected().sum(axis=(1, 2)) < cells) & burning.any(axis=(1, 2))
+        active &= ~fire_at_border(burning, border_cells)
+        if not active.any():
+            return
+        fire.step(active)
 
 
 def initial_fire(
@@ -172,6 +204,7 @@ __all__ = [
     "DECISION_PERIOD_NS",
     "EPISODE_DEFAULTS",
     "FIRE_STEP_NS",
+    "MAX_PREBURN_STEPS",
     "MODES",
     "NS_PER_S",
     "REALTIME_AHEAD_NS",
@@ -182,5 +215,6 @@ __all__ = [
     "fire_at_border",
     "fire_step_tick",
     "initial_fire",
+    "preburn",
     "stamp_ceiling_ns",
 ]

@@ -22,6 +22,10 @@ Implementation notes (why it is fast and reproducible):
   (``seeding.Stream.FIRE``), one per candidate cell (not burning, with fuel, next to fire)
   in row-major order, so a fire depends on its seed only, never on the batch it runs in
   (and every stored score stays what it was).
+* With a fuel map (:mod:`wildfire_sim.fuel_map`) each cell draws its initial fuel from its own
+  range, and its spread multiplier ``m`` scales its hazard: ``p = 1 - (1 - p0) ** m``, i.e.
+  the pressure is multiplied by ``m`` (after the exact integer convolution, so the
+  convolution's exactness is kept).
 * On any other map the uniform of a candidate is counter-based: a hash of (seed, fire step,
   cell) (:func:`wildfire_sim.seeding.cell_uniforms`). It then depends on nothing but those
   three, so the fire may be stepped on any cut of its active region.
@@ -36,11 +40,15 @@ import torch
 import torch.nn.functional as F
 
 from wildfire_sim.errors import FireConfigError
+from wildfire_sim.fuel_map import FuelMap
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.seeding import Stream, cell_uniforms, generator
 
 STENCIL_RADIUS = 2
 """Cells further than this (in row or column) never ignite each other."""
+WINDOW_TILE = 32
+"""The active window (every burning cell and its 2-cell halo) grows and shrinks in tiles of
+this many cells."""
 LOG_SCALE = float(2**16)
 """Fixed-point scale of the quantised log-survival kernel."""
 MAX_SPREAD_PROBABILITY = 0.99
@@ -122,8 +130,10 @@ class BatchedFire:
     layout the batched convolution is fast on, so no transposition is needed on a step;
     the public arrays are transposed views of that storage.
 
-    Environments are (re)started with :meth:`reset`; :meth:`step` advances all of them or
-    those selected by a mask, so environments of a vectorised trainer may run out of phase.
+    With ``fuel_map`` (its geometry is the map's) the initial fuel and the spread follow the
+    raster (the same for every environment). Environments are (re)started with
+    :meth:`reset`; :meth:`step` advances all of them or those selected by a mask, so
+    environments of a vectorised trainer may run out of phase.
     """
 
     def __init__(
@@ -131,12 +141,18 @@ class BatchedFire:
         num_envs: int,
         params: FireParams | None = None,
         geometry: MapGeometry = PAPER_MAP,
+        fuel_map: FuelMap | None = None,
     ) -> None:
         if num_envs < 1:
             raise FireConfigError(f"num_envs: expected >= 1, got {num_envs}")
+        if fuel_map is not None and fuel_map.geometry != geometry:
+            raise FireConfigError(
+                f"fuel map: {fuel_map.geometry.text} cells on a {geometry.text} map"
+            )
         self.params = (params or FireParams()).validate()
         self.num_envs = num_envs
         self.geometry = geometry
+        self.fuel_map = fuel_map
         storage = (*geometry.shape, num_envs)
         self._fuel = np.zeros(storage, dtype=np.int8)
         self._initial_fuel = np.zeros(storage, dtype=np.int8)
@@ -177,7 +193,8 @@ class BatchedFire:
         ``ignition`` and ``fuel_mask`` are boolean (H, W) masks shared by all, or (k, H, W)
         one per environment; ``wind`` is (2,) or (k, 2). Initial fuel is drawn uniformly from
         the integers [fuel_min, fuel_max] (0 outside ``fuel_mask``) with the environment's
-        own generator; ignition cells without fuel do not burn.
+        own generator (from the fuel map's per-cell range, with one); ignition cells without
+        fuel do not burn.
         """
         env_ids = np.atleast_1d(np.asarray(env_ids, dtype=np.int64))
         seeds = np.atleast_1d(np.asarray(seeds, dtype=np.int64))
@@ -190,7 +207,12 @@ class BatchedFire:
         p = self.params
         for k, (env, seed) in enumerate(zip(env_ids.tolist(), seeds.tolist(), strict=True)):
             rng = generator(seed, Stream.FIRE)
-            fuel = rng.integers(p.fuel_min, p.fuel_max + 1, size=grid, dtype=np.int8)
+            if self.fuel_map is None:
+                fuel = rng.integers(p.fuel_min, p.fuel_max + 1, size=grid, dtype=np.int8)
+            else:
+                low, high = self.fuel_map.low, self.fuel_map.high
+                fuel = rng.integers(low, high.astype(np.int16) + 1, dtype=np.int16)
+                fuel = fuel.astype(np.int8)
             fuel[~fuel_mask[k]] = 0
             self._fuel[:, :, env] = fuel
             self._initial_fuel[:, :, env] = fuel
@@ -230,6 +252,10 @@ class BatchedFire:
         # Only the window around the fires changes; early in an episode it is a small part
         # of the map, so everything below works on views of it.
         window = self._active_window()
+        if window[0].start == window[0].stop:
+            # Every fire of the batch is out: nothing burns, nothing can ignite.
+            self.steps += stepped
+            return
         pressure = self.ignition_pressure(window)
         burning, fuel = self._burning[window], self._fuel[window]
         # Cells that may ignite: not burning, fuel left, some burning neighbour.
@@ -240,7 +266,11 @@ class BatchedFire:
         ignites = np.zeros(burning.shape, dtype=bool)
         if flat_index.size:
             uniforms = self._draw_uniforms(flat_index, window)
-            probability = -np.expm1(-pressure.ravel()[flat_index].astype(np.float64) / LOG_SCALE)
+            hazard = pressure.ravel()[flat_index].astype(np.float64)
+            if self.fuel_map is not None and self.fuel_map.spread is not None:
+                # Storage is (h, w, E): the candidate's cell of the window is index // E.
+                hazard *= self.fuel_map.spread[window].ravel()[flat_index // self.num_envs]
+            probability = -np.expm1(-hazard / LOG_SCALE)
             ignites.ravel()[flat_index] = uniforms < probability
         # Burning cells always hold fuel, so fuel - burn_rate only needs clipping above 1.
         consumed = burning if mask is None else burning & stepped
@@ -295,18 +325,21 @@ class BatchedFire:
         return slice(r0, r1), slice(c0, c1)
 
     def _burning_bounds(self, r0: int, r1: int, c0: int, c1: int) -> tuple[int, int, int, int]:
-        """Bounding box of the burning cells inside rows r0:r1, columns c0:c1, plus margin."""
+        """Bounding box of the burning cells inside rows r0:r1, columns c0:c1, plus margin,
+        in whole tiles of the map."""
         part = self._burning[r0:r1, c0:c1]
         rows = np.flatnonzero(part.any(axis=(1, 2)))
         if rows.size == 0:
             return (0, 0, 0, 0)
         cols = np.flatnonzero(part.any(axis=(0, 2)))
-        m = STENCIL_RADIUS
+        m, t = STENCIL_RADIUS, WINDOW_TILE
+        # Snapped out to whole tiles: the window then keeps its size for many steps, and
+        # torch reuses its convolution for that size (a new size costs ~10x a step).
         return (
-            max(r0 + int(rows[0]) - m, 0),
-            min(r0 + int(rows[-1]) + 1 + m, self.geometry.rows),
-            max(c0 + int(cols[0]) - m, 0),
-            min(c0 + int(cols[-1]) + 1 + m, self.geometry.cols),
+            max((r0 + int(rows[0]) - m) // t * t, 0),
+            min(-(-(r0 + int(rows[-1]) + 1 + m) // t) * t, self.geometry.rows),
+            max((c0 + int(cols[0]) - m) // t * t, 0),
+            min(-(-(c0 + int(cols[-1]) + 1 + m) // t) * t, self.geometry.cols),
         )
 
     def _shrink_window(self) -> None:

@@ -29,6 +29,8 @@ class Stream(IntEnum):
     """Per-aircraft sensor noise: which reports flip (``wildfire_agent.camera``)."""
     WIND = 5
     """The team's wind filter: its particles' winds and resampling."""
+    IGNITION = 6
+    """Where ``--ignitions K`` lights its seeded blocks."""
 
 
 def generator(seed: int, stream: Stream, *index: int) -> np.random.Generator:

@@ -78,4 +78,21 @@ def seed_centre_m(ignition: np.ndarray, cell_size_m: float = 10.0) -> tuple[floa
     return float((cols.mean() + 0.5) * cell_size_m), float((rows.mean() + 0.5) * cell_size_m)
 
 
-__all__ = ["Shape", "ShapeMasks", "seed_centre_m", "shape_masks"]
+def start_centres_m(ignition: np.ndarray, n_aircraft: int, cell_size_m: float = 10.0) -> np.ndarray:
+    """Where each aircraft starts around, (N, 2) metres: the fires spread the fleet.
+
+    Each connected fire of the ignition (8-neighbours; numbered in scan order from the
+    south-west) has its centroid; aircraft k starts around fire ``k mod K``. With one fire
+    that is :func:`seed_centre_m` for every aircraft, exactly.
+    """
+    from scipy import ndimage
+
+    labels, count = ndimage.label(ignition, structure=np.ones((3, 3), dtype=bool))
+    if count <= 1:
+        return np.tile(np.asarray(seed_centre_m(ignition, cell_size_m)), (n_aircraft, 1))
+    rows_cols = np.asarray(ndimage.center_of_mass(ignition, labels, range(1, count + 1)))
+    centres = (rows_cols[:, ::-1] + 0.5) * cell_size_m
+    return centres[np.arange(n_aircraft) % count]
+
+
+__all__ = ["Shape", "ShapeMasks", "seed_centre_m", "shape_masks", "start_centres_m"]
