@@ -72,6 +72,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     words = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser(words[0] if words else None)
     args = parser.parse_args(words)
+    # What was typed, beside the defaults: a parameters file yields to the one, not the other.
+    args.argv = words
     try:
         return int(args.handler(args) or 0)
     except USER_ERRORS as error:

@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from wildfire_cli.common import (
     UserError,
@@ -150,24 +149,6 @@ def check_record_dir(path: Path) -> Path:
     return path
 
 
-def check_params_file(path: Path) -> Path:
-    try:
-        content = yaml.safe_load(path.read_text())
-    except OSError as error:
-        raise UserError(f"--params-file {path}: cannot read it ({error.strerror})") from None
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark is not None else ""
-        raise UserError(f"--params-file {path}: malformed YAML{where}") from None
-    if not isinstance(content, dict) or not all(
-        isinstance(v, dict) and isinstance(v.get("ros__parameters"), dict) for v in content.values()
-    ):
-        raise UserError(
-            f"--params-file {path}: expected '<node>: {{ros__parameters: {{name: value}}}}' entries"
-        )
-    return path.resolve()
-
-
 def check_hosts(count: int | None, n_aircraft: int) -> int:
     """``--hosts``: 0 when not given; else within 1..aircraft+2 and namespaces available."""
     if count is None:
@@ -214,6 +195,7 @@ def check_faults(args: argparse.Namespace, hosts: int) -> tuple[Any, tuple[Any, 
 
 def build_spec(args: argparse.Namespace) -> Any:
     from wildfire_bringup.launcher import RunSpec
+    from wildfire_cli.run_params import check_params_file
     from wildfire_learning.env import EnvConfig, draw_scenario
     from wildfire_sim.shapes import Shape
 
@@ -382,7 +364,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.png is not None and not os.access(args.png.resolve().parent, os.W_OK):
         raise UserError(f"--png {args.png}: its directory is not writable")
-    spec = build_spec(args)
+    from wildfire_cli.run_params import with_params_file
+
+    spec, from_file = with_params_file(args, build_spec)
     launcher = Launcher(spec)
     # `kill`/`timeout` stop the run like Ctrl-C: children stopped, recording finalized.
     interrupt_on_stop_signals()
@@ -403,6 +387,9 @@ def run(args: argparse.Namespace) -> int:
     affected = result.pop("_affected", None)
     if spec.record_dir is not None:
         result["record"] = str(spec.record_dir)
+    if spec.params_file is not None:
+        # What the file changed from the defaults (the rest of the summary shows it flown).
+        result |= {"params_file": str(spec.params_file), "from_params_file": from_file}
     if launcher.respawns:
         result["respawns"] = launcher.respawns
     if launcher.lost:
@@ -443,6 +430,8 @@ def run(args: argparse.Namespace) -> int:
             f"{result['wall_time_s']:.1f} s wall ({result['speedup']:.1f}x real time)"
             + (f"; missed deadlines {100 * missed:.2f} %" if missed is not None else "")
         )
+        if from_file:
+            print(f"from {spec.params_file}: {', '.join(f'{k} {v}' for k, v in from_file.items())}")
         for host in result.get("hosts", []):
             print(f"host {host['namespace']} ({host['address']}): {', '.join(host['nodes'])}")
         for key in ("record", "png"):
