@@ -102,8 +102,15 @@ def test_oracle_flies_what_it_predicts_and_beats_rh():
     config = short_config(duration_s=30.0)
     oracle = make_vec_policy("oracle")
     assert isinstance(oracle, OracleVecPolicy) and oracle.observation == "none"
-    flown = evaluate(oracle, config, [SEED], "oracle", record=True).episodes[0]
+    summary = evaluate(oracle, config, [SEED], "oracle", record=True)
+    flown = summary.episodes[0]
     plan = oracle.plans[SEED]
+    # The timings count the planning before the flight: its own key, the policy's time per
+    # decision and the wall time all hold it.
+    assert summary.planning_s >= oracle.plan_seconds[SEED] > 0.0
+    assert summary.seconds_per_decision * flown.decisions * 2 >= summary.planning_s
+    assert summary.wall_time_s >= summary.planning_s
+    assert summary.to_json()["planning_s"] == summary.planning_s
     assert flown.score == plan.score
     assert flown.trajectory is not None
     assert np.array_equal(flown.trajectory[1:, :, 0].T, plan.x_m)

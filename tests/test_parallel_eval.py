@@ -19,7 +19,7 @@ from wildfire_learning.parallel import EvalJob, evaluate_jobs, split_seeds
 from wildfire_learning.vec_policies import make_vec_policy
 
 WILDFIRE = [str(Path(sys.executable).with_name("wildfire"))]
-TIMINGS = {"seconds_per_decision", "wall_time_s"}
+TIMINGS = {"seconds_per_decision", "wall_time_s", "planning_s"}
 """The only fields of an evaluation that may differ between two runs of it."""
 
 

@@ -85,6 +85,15 @@ def card_key(
     return key
 
 
+def planning_note(planning_s: float, wall_s: float) -> str:
+    """What the summary line says of the policy's planning before the flight: nothing for
+    the policies that plan as they fly (their reset takes milliseconds), the seconds and the
+    share of the wall time for the oracle, which plans every episode whole first."""
+    if planning_s < 0.05:
+        return ""
+    return f" including {planning_s:.1f} s of planning before the flight ({wall_s:.1f} s wall)"
+
+
 def run(args: argparse.Namespace) -> int:
     shape = Shape.parse(args.shape)
     device = resolve_device(args.device)
@@ -140,8 +149,10 @@ def run(args: argparse.Namespace) -> int:
         "comm": str(config.comm),
         "sensor": config.sensor,
         "pixel_error": config.pixel_error,
-        "map_size": list(config.geometry.shape),
+        **config.ground.summary(),
     }
+    if config.preburn_area_m2 > 0:
+        result["preburn_area_m2"] = config.preburn_area_m2
     if args.card:
         from wildfire_learning.export import record_evaluation
 
@@ -150,6 +161,10 @@ def run(args: argparse.Namespace) -> int:
             shape.value, args.aircraft, args.wind, args.max_wind, config.comm, sensing,
             config.geometry,
         )  # fmt: skip
+        if config.landscape is not None:
+            scenario = f"{scenario}_{config.landscape.key}"
+        if config.preburn_area_m2 > 0:
+            scenario = f"{scenario}_preburn{config.preburn_area_m2:g}m2"
         card = record_evaluation(resolve_policy_path(args.policy), scenario, result)
         if not args.json:
             print(f"recorded {scenario} in {card}")
@@ -163,6 +178,7 @@ def run(args: argparse.Namespace) -> int:
             f"belief IoU {result['belief_iou_mean']:.2f}, mean age at fire "
             f"{result['mean_age_burning_s']:.1f} s, "
             f"{result['seconds_per_decision'] * 1e3:.2f} ms per decision"
+            + planning_note(result["planning_s"], result["wall_time_s"])
         )
         if config.noisy:
             print(

@@ -5,7 +5,12 @@ See docs/model.md, Evaluation.
 All episodes run as one batch (each with its own seed, so results do not depend on how many
 run together). Reported per episode: score, flight time, belief IoU at the end (believed
 burning vs burning cells), mean belief age at the burning cells at the end, the score
-ceiling; and the mean wall time a policy needs per aircraft decision.
+ceiling; and the timings.
+
+The timings count all of a policy's work: ``seconds_per_decision`` is its time before the
+flight (``VecPolicy.reset``, where the oracle plans every episode whole) and in flight
+(``act``), over the aircraft decisions flown; ``planning_s`` is the part before the flight,
+shown apart; ``wall_time_s`` is the whole evaluation (environment, planning and flight).
 
 The score ceiling of an episode (``wildfire_belief.belief.score_ceiling``) is the number of
 cells that burn at some decision of the flight and were not believed burning at its start.
@@ -70,7 +75,11 @@ class EvaluationSummary:
     policy: str
     episodes: list[EpisodeRecord] = field(default_factory=list)
     seconds_per_decision: float = 0.0
+    """The policy's time (planning and flight) per aircraft decision."""
     wall_time_s: float = 0.0
+    """The whole evaluation: environment, planning and flight."""
+    planning_s: float = 0.0
+    """Of the policy's time, what it spent before the first decision (the oracle's plans)."""
 
     @property
     def scores(self) -> np.ndarray:
@@ -102,6 +111,7 @@ class EvaluationSummary:
             "ceiling_fraction": float(scores.sum() / max(self.score_ceilings.sum(), 1.0)),
             "seconds_per_decision": self.seconds_per_decision,
             "wall_time_s": self.wall_time_s,
+            "planning_s": self.planning_s,
         }
 
 
@@ -119,10 +129,13 @@ def evaluate(
     ``progress(done, total)`` is called after every decision with the decisions flown so far,
     ``on_step(active, result)`` with each step's result and the episodes it stepped.
     """
+    start = time.perf_counter()
     config = replace(config, observation=policy.observation)
     env = WildfireVecEnv(config, len(seeds))
     observations = env.reset(np.asarray(seeds))
-    policy.reset(env)
+    tic = time.perf_counter()
+    policy.reset(env)  # the oracle plans every episode here: part of the policy's time
+    planning = time.perf_counter() - tic
     believed_at_start = env.believed().copy()
     if env.sensing is not None:
         # Under noise a cell believed burning at the start can lose that belief and score
@@ -130,9 +143,8 @@ def evaluate(
         believed_at_start[:] = False
     burned_in_flight = env.truth.astype(bool)
     trajectory = [np.stack([env.aircraft.x_m, env.aircraft.y_m], axis=-1)] if record else []
-    policy_seconds = 0.0
+    policy_seconds = planning
     aircraft_decisions = 0
-    start = time.perf_counter()
     while not env.done.all():
         active = ~env.done
         tic = time.perf_counter()
@@ -149,7 +161,6 @@ def evaluate(
             trajectory.append(np.stack([env.aircraft.x_m, env.aircraft.y_m], axis=-1))
         if progress is not None:
             progress(int(env.decisions.max()), config.max_decisions)
-    wall = time.perf_counter() - start
 
     ious = belief_iou(env.believed(), env.fire.burning)
     ages = mean_age_at_burning(env.belief_age_s(), env.fire.burning)
@@ -157,10 +168,12 @@ def evaluate(
     flipped = sensing.flipped_fraction() if sensing is not None else np.zeros(len(seeds))
     affected = env.fire.affected()
     ceilings = score_ceiling(burned_in_flight, believed_at_start)
+    wall = time.perf_counter() - start
     summary = EvaluationSummary(
         policy=policy_name,
         seconds_per_decision=policy_seconds / max(aircraft_decisions, 1),
         wall_time_s=wall,
+        planning_s=planning,
     )
     path = np.stack(trajectory, axis=1) if record else None  # (E, T + 1, N, 2)
     for e, seed in enumerate(seeds):

@@ -441,8 +441,8 @@ class OracleVecPolicy:
         self._incumbent_policies: dict[str, VecPolicy] = {}
         self.plans: dict[int, OraclePlan] = {}
         self.plan_seconds: dict[int, float] = {}
-        """Wall time of each episode's planning (in ``reset``, which ``evaluate`` does not
-        time), by seed."""
+        """Wall time of each episode's planning (in ``reset``, which ``evaluate`` counts as
+        the policy's ``planning_s``), by seed."""
         self.candidates: dict[int, dict[str, int]] = {}
         """Per seed, the score of each flight considered: the search's own (``search``), each
         incumbent's, and the refined plan (``refined``)."""

@@ -9,8 +9,8 @@ aircraft randomness come from its own streams (``seeding.py``), the fire model i
 batch-independent (``fire.py``), each planner draws from its aircraft's own generator and
 sums rewards in a layout-independent order (``receding_horizon.py``), and a Q-network sees
 one ownship at a time (``policies.QNetworkVecPolicy``). Only the timings differ:
-``seconds_per_decision`` is the decision-weighted mean of the tasks', ``wall_time_s`` their
-sum (the compute spent, not the elapsed time).
+``seconds_per_decision`` is the decision-weighted mean of the tasks', ``wall_time_s`` and
+``planning_s`` their sums (the compute spent, not the elapsed time).
 
 Executors:
 
@@ -151,6 +151,7 @@ def merge(policy: str, parts: Sequence[EvaluationSummary]) -> EvaluationSummary:
         episodes=[episode for part in parts for episode in part.episodes],
         seconds_per_decision=weighted / max(sum(decisions), 1),
         wall_time_s=sum(part.wall_time_s for part in parts),
+        planning_s=sum(part.planning_s for part in parts),
     )
 
 
