@@ -23,13 +23,19 @@ setup(
         "wildfire_belief",
         "wildfire_agent",
         "wildfire_testbed",
+        "foxglove-sdk",
     ],
+    entry_points={
+        "console_scripts": [
+            "live_view = wildfire_bringup.live_view_node:main",
+        ],
+    },
     zip_safe=True,
     maintainer="Wildfire surveillance maintainers",
     maintainer_email="wildfire@example.org",
     description=(
         "Launch files, default parameters and the launcher that brings a whole system up "
-        "(wildfire run), with its run monitor node."
+        "(wildfire run), with its run monitor node and the Foxglove live view."
     ),
     license="Apache-2.0",
 )

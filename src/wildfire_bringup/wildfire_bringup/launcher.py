@@ -13,7 +13,9 @@ killed. When a child dies the launcher names it, its exit status and the last li
 wrote, finalizes the recording and stops the rest — or, with ``respawn`` in real time,
 starts it again (an agent continues from its last published state, the aggregator recovers
 the belief from the agents). Under limited radio links (``RunSpec.comm``) the aggregator is
-a ground station no decision depends on: when it dies the run flies on without it.
+a ground station no decision depends on: when it dies the run flies on without it. With
+``RunSpec.foxglove_port`` a ``live_view`` node serves the run to Foxglove
+(:mod:`wildfire_bringup.live_view_node`); it reports to no one, and the run flies on if it dies.
 
 With ``RunSpec.hosts`` the run spreads over that many virtual hosts, Linux network namespaces on
 a bridge of their own (:mod:`wildfire_testbed.hosts`): the launcher joins host 0 before its
@@ -52,6 +54,8 @@ if TYPE_CHECKING:
 
 FATAL_ON_DEATH = ("fire_simulator",)
 """Nodes that cannot be respawned: a new fire simulator would restart the truth."""
+LIVE_VIEW = "live_view"
+"""The Foxglove live view's node: an observer the run never waits for."""
 
 
 class NodeFailure(Exception):
@@ -97,6 +101,8 @@ class RunSpec:
     """Probability that a report flips; with the camera or any error, a filtered belief."""
     wind_filter: bool = False
     """The filtered belief's process term takes a particle filter's wind estimate."""
+    foxglove_port: int | None = None
+    """Serve the run to Foxglove on this 127.0.0.1 port (the ``live_view`` node); None: not."""
 
     @property
     def noisy(self) -> bool:
@@ -216,6 +222,12 @@ def node_commands(
             f"__ns:=/uav{k}",
             *_param_args(params),
         ]
+    if spec.foxglove_port is not None:
+        # An observer: no reporter of the lockstep barrier, and the run flies on without it.
+        commands[LIVE_VIEW] = [
+            "wildfire_bringup.live_view_node",
+            *_param_args({"port": spec.foxglove_port, "n_aircraft": spec.n_aircraft}),
+        ]
     for name, command in commands.items():
         module, *rest = command
         if rest[:1] == ["--ros-args"]:
@@ -293,6 +305,13 @@ class Launcher:
                 continue
             why = last_line(self.log_dir / f"{name}.log") or "no output"
             how = f"signal {-status}" if status < 0 else f"exit status {status}"
+            if name == LIVE_VIEW:
+                # Nothing depends on the live view: fly on without it (never respawned:
+                # a port taken stays taken).
+                print(f"wildfire run: node {name} died ({how}): {why}; flying on", file=sys.stderr)
+                self.lost[name] = f"died ({how}): {why}"
+                del self.processes[name]
+                continue
             if self.spec.respawn and not self.spec.lockstep and name not in FATAL_ON_DEATH:
                 self.respawns[name] = self.respawns.get(name, 0) + 1
                 print(f"wildfire run: node {name} died ({how}): respawning", file=sys.stderr)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -94,6 +95,15 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         help="with --hosts: cut host HOST off the bridge START_S seconds after the first tick "
         "and heal it DURATION_S later (repeatable)",
     )
+    parser.add_argument(
+        "--foxglove",
+        nargs="?",
+        const=8765,
+        type=int,
+        metavar="PORT",
+        help="watch it live: serve fire, belief, aircraft, paths, camera footprints and score "
+        "to Foxglove on ws://127.0.0.1:PORT (default 8765; layout docs/foxglove/wildfire.json)",
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.add_argument("--png", type=Path, metavar="FILE", help="draw fire, belief and paths")
     parser.add_argument("--log-dir", type=Path, metavar="DIR", help="node logs (default: temp)")
@@ -147,6 +157,30 @@ def check_record_dir(path: Path) -> Path:
     if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
         raise UserError(f"--record {path}: cannot create it ({parent} is not a writable directory)")
     return path
+
+
+def check_foxglove_port(port: int | None, hosts: int) -> int | None:
+    """``--foxglove``: a free port on 127.0.0.1, not on virtual hosts; None when not given."""
+    if port is None:
+        return None
+    import socket
+
+    if not 1 <= port <= 65535:
+        raise UserError(f"--foxglove {port}: expected a port in 1..65535")
+    if hosts:
+        # Inside a virtual host 127.0.0.1 is the namespace's own loopback: no viewer reaches it.
+        raise UserError("--foxglove: not with --hosts (the view serves this machine's loopback)")
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        # As a server binds: a port held only by closed connections (TIME_WAIT) is free.
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind(("127.0.0.1", port))
+        except OSError as error:
+            raise UserError(
+                f"--foxglove {port}: cannot listen on 127.0.0.1:{port} ({error.strerror}); "
+                "give another port"
+            ) from None
+    return port
 
 
 def check_hosts(count: int | None, n_aircraft: int) -> int:
@@ -209,6 +243,11 @@ def build_spec(args: argparse.Namespace) -> Any:
         shapes=(shape.value,), observation="none", **scenario_settings(args)
     ).validate()
     policy = resolve_policy(args.policy, config)
+    if config.landscape is not None or config.preburn_area_m2 > 0:
+        raise UserError(
+            "--fuel-map/--ignition-map/--ignitions/--preburn-area: the distributed system "
+            "flies the paper's fuel and shapes so far (eval flies them)"
+        )
     if not config.geometry.is_paper:
         # The nodes exchange whole maps every tick; at field scale they must send tiles.
         raise UserError(
@@ -240,6 +279,7 @@ def build_spec(args: argparse.Namespace) -> Any:
         sensor=config.sensor,
         pixel_error=config.pixel_error,
         wind_filter=config.wind_filter,
+        foxglove_port=check_foxglove_port(args.foxglove, hosts),
     )
 
 
@@ -371,6 +411,8 @@ def run(args: argparse.Namespace) -> int:
     # `kill`/`timeout` stop the run like Ctrl-C: children stopped, recording finalized.
     interrupt_on_stop_signals()
     total = round(args.duration * 10)
+    if spec.foxglove_port is not None:
+        print(f"Foxglove live view: ws://127.0.0.1:{spec.foxglove_port}", file=sys.stderr)
     label = f"run {args.policy} ({spec.mode})"
     if spec.hosts:
         label += f" on {spec.hosts} hosts"
@@ -394,6 +436,8 @@ def run(args: argparse.Namespace) -> int:
         result["respawns"] = launcher.respawns
     if launcher.lost:
         result["lost_nodes"] = launcher.lost
+    if spec.foxglove_port is not None:
+        result["foxglove"] = f"ws://127.0.0.1:{spec.foxglove_port}"
     if network is not None:
         result["hosts"] = network.summary()
         faults = network_faults(launcher)
