@@ -26,10 +26,10 @@ import sys
 import time
 from typing import Any
 
+from wildfire_agent.agent_parameters import PARAMETERS, agent_protocol
 from wildfire_agent.agent_protocol import (
     MAX_BANK_RAD,
     AckOut,
-    AgentProtocol,
     DeadlineOut,
     Mode,
     Output,
@@ -39,8 +39,6 @@ from wildfire_agent.agent_protocol import (
 from wildfire_agent.deadlines import PERIOD_S
 from wildfire_agent.dynamics import MAX_BANK_STEPS, AircraftState
 from wildfire_agent.errors import AgentConfigError
-from wildfire_agent.policy_names import EXPECTED_POLICIES, has_network_file
-from wildfire_belief.sensors import SENSORS
 from wildfire_msgs_py import camera_codec, codecs, contract, radio_codec, system_codecs
 from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.wire_checks import (
@@ -53,59 +51,12 @@ from wildfire_msgs_py.wire_checks import (
     checked_stamped_state,
 )
 from wildfire_ros.node_support import (
-    ParamSpec,
     contract_publisher,
     contract_subscription,
     declare_parameters,
     run_node,
 )
 from wildfire_ros.runtime import Node
-from wildfire_sim.episode import EPISODE_DEFAULTS, MODES
-from wildfire_sim.shapes import Shape
-
-PARAMETERS = (
-    ParamSpec("aircraft", 0, "index k of this aircraft (namespace /uavK)", 0, 63),
-    ParamSpec("n_aircraft", 2, "aircraft in the team", 1, 64),
-    ParamSpec("policy", "rh", EXPECTED_POLICIES),
-    ParamSpec(
-        "seed", EPISODE_DEFAULTS.seed, "episode seed (the aircraft's random stream)", 0, 2**31 - 1
-    ),
-    ParamSpec("start_x", 500.0, "start position east, m", -10_000.0, 11_000.0),
-    ParamSpec("start_y", 500.0, "start position north, m", -10_000.0, 11_000.0),
-    ParamSpec("start_heading", 0.0, "start heading, rad counter-clockwise from east", -7.0, 7.0),
-    ParamSpec("start_bank_steps", 0, "start bank in 5 degree steps", -10, 10),
-    ParamSpec("mode", "lockstep", "lockstep (sim time) or realtime", choices=MODES),
-    ParamSpec("rh_horizon", 60, "receding horizon: decisions planned ahead", 2, 400),
-    ParamSpec("rh_replan_every", 10, "receding horizon: decisions flown per plan", 1, 399),
-    ParamSpec("rh_restarts", 4, "receding horizon: random restarts per plan", 1, 64),
-    ParamSpec("torch_threads", 1, "CPU threads of the Q-network", 1, 64),
-    ParamSpec(
-        "comm",
-        "ideal",
-        "radio links: ideal (decide on the aggregator's shared belief), none or "
-        "range=R[,loss=P][,delay=D] (decide on the own replica; lockstep)",
-    ),
-    ParamSpec(
-        "sensor",
-        "disc",
-        "disc (every cell within 100 m, perfectly) or camera (four cameras; reports on "
-        "camera0..3/cells)",
-        choices=SENSORS,
-    ),
-    ParamSpec(
-        "pixel_error",
-        0.0,
-        "probability that a report flips, below 0.5 (drawn from the aircraft's stream)",
-        0.0,
-        0.5,
-    ),
-    ParamSpec(
-        "shape",
-        EPISODE_DEFAULTS.shape,
-        "ignition shape (the replica's start under limited links)",
-        choices=tuple(s.value for s in Shape),
-    ),
-)
 
 
 class AgentNode(Node):
@@ -114,15 +65,8 @@ class AgentNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("agent", **kwargs)
         p = declare_parameters(self, PARAMETERS)
-        if has_network_file(p["policy"]):  # a Q-network (obs, belief or a .pt file)
-            import torch
-
-            torch.set_num_threads(p["torch_threads"])
-        self.protocol = protocol = AgentProtocol.from_parameters(
-            p, lambda: self.get_clock().now().nanoseconds
-        )
+        self.protocol = protocol = agent_protocol(p, lambda: self.get_clock().now().nanoseconds)
         self.k, self.seed, self.name_tag = protocol.k, p["seed"], protocol.name_tag
-        self.ready_sent = False
         self.input_guard = guard = InputGuard(self.get_logger().warning)
 
         def publisher(spec: contract.TopicSpec) -> Any:
@@ -146,43 +90,43 @@ class AgentNode(Node):
         # Deep reader histories on the inputs lockstep waits for: a flood on a keyless topic
         # must not push the honest sample out of the queue before the executor takes it.
         deep = contract.QosSpec(depth=100, transient_local=True)
-        subscriptions: list[tuple[contract.TopicSpec, Any, Any]] = [
-            (contract.FIRE_MAP, lambda m: protocol.on_fire_map(*checked_fire_grid(m)), deep),
-            (contract.EPISODE, lambda m: protocol.on_status(checked_episode(m, self.seed)), deep),
+        subscriptions: list[tuple[contract.TopicSpec, Any, Any, int | None]] = [
+            (contract.FIRE_MAP, lambda m: protocol.on_fire_map(*checked_fire_grid(m)), deep, None),
+            (
+                contract.EPISODE,
+                lambda m: protocol.on_status(checked_episode(m, self.seed)),
+                deep,
+                None,
+            ),
         ]
         if protocol.keeps_belief:
             subscriptions += [
-                (contract.BELIEF, lambda m: protocol.on_belief(*checked_belief_grid(m)), deep),
+                (
+                    contract.BELIEF,
+                    lambda m: protocol.on_belief(*checked_belief_grid(m)),
+                    deep,
+                    None,
+                ),
                 (
                     contract.BELIEF_AGE_EXACT,
                     lambda m: protocol.on_ages(*checked_age_image(m)),
                     deep,
+                    None,
                 ),
-                (contract.SCORE, lambda m: protocol.on_score(checked_score(m)), None),
-                (contract.BELIEF_REQUEST, self.belief_request_callback, None),
+                (contract.SCORE, lambda m: protocol.on_score(checked_score(m)), None, None),
+                (contract.BELIEF_REQUEST, self.belief_request_callback, None, None),
             ]
-        for spec, handle, qos in subscriptions:
-            contract_subscription(
-                self, spec, functools.partial(self.deliver, handle), qos=qos, guard=guard
-            )
         for j in protocol.peer_states:
-            contract_subscription(
-                self,
-                contract.STATE_STAMPED,
-                functools.partial(self.deliver, functools.partial(self.peer_state, j)),
-                aircraft=j,
-                qos=deep,
-                guard=guard,
+            subscriptions.append(
+                (contract.STATE_STAMPED, functools.partial(self.peer_state, j), deep, j)
             )
             if protocol.radio is not None:
-                contract_subscription(
-                    self,
-                    contract.RADIO,
-                    functools.partial(self.deliver, functools.partial(self.peer_radio, j)),
-                    aircraft=j,
-                    qos=deep,
-                    guard=guard,
+                subscriptions.append(
+                    (contract.RADIO, functools.partial(self.peer_radio, j), deep, j)
                 )
+        for spec, handle, qos, peer in subscriptions:
+            callback = functools.partial(self.deliver, handle)
+            contract_subscription(self, spec, callback, aircraft=peer, qos=qos, guard=guard)
         self.publish(protocol.start())
         self.startup_timer = self.create_timer(0.1, self.startup_timer_callback)
         if protocol.mode is Mode.REALTIME:
@@ -210,16 +154,12 @@ class AgentNode(Node):
             self.snapshot_pub.publish(system_codecs.snapshot_to_msg(snapshot))
 
     def startup_timer_callback(self) -> None:
-        """Say ready once the aggregator is known to listen to our reports (an orderly start:
-        reports are durable, so one written before DDS matched both ends still arrives)."""
+        """Say ready once the aggregator listens to our reports (``AgentProtocol.on_startup``)."""
         topics = [spec.resolve(self.k) for spec in self.report_specs]
-        if self.ready_sent or any(self.count_subscribers(topic) < 1 for topic in topics):
-            return
-        self.ready_sent = True
-        self.ack_pub.publish(
-            system_codecs.ack_to_msg(self.name_tag + system_codecs.READY_SUFFIX, 0)
-        )
-        self.destroy_timer(self.startup_timer)
+        if self.protocol.on_startup(all(self.count_subscribers(t) > 0 for t in topics)):
+            tag = self.name_tag + system_codecs.READY_SUFFIX
+            self.ack_pub.publish(system_codecs.ack_to_msg(tag, 0))
+            self.destroy_timer(self.startup_timer)
 
     def publish(self, outputs: list[Output] | None) -> None:
         """Encode and publish the protocol's outputs, in their order."""
@@ -238,10 +178,8 @@ class AgentNode(Node):
                 self.radio_pub.publish(radio_codec.radio_to_msg(out.message))
             elif isinstance(out, DeadlineOut):
                 inputs = self.input_guard.status(f"{self.name_tag}/agent", self.name_tag)
-                radio = self.protocol.radio_status()
-                statuses = [out.status, inputs] + ([radio] if radio is not None else [])
-                message = codecs.diagnostics_to_msg(statuses, out.stamp)
-                self.diagnostics_pub.publish(message)
+                statuses = [out.status, inputs] + ([out.radio] if out.radio is not None else [])
+                self.diagnostics_pub.publish(codecs.diagnostics_to_msg(statuses, out.stamp))
             else:
                 for report_pub, window in zip(self.report_pubs, out.windows, strict=True):
                     report_pub.publish(codecs.visit_to_msg(window, out.stamp))

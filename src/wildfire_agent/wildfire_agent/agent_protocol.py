@@ -27,8 +27,8 @@ belief.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
-from typing import Any, NamedTuple
+from collections.abc import Callable, Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -43,11 +43,9 @@ from wildfire_agent.deadlines import (
 )
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
-from wildfire_agent.receding_horizon import RecedingHorizonConfig
-from wildfire_belief.radio import CommError, CommModel
 from wildfire_msgs_py.belief_codec import believed_burning
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
-from wildfire_msgs_py.contract import AIRCRAFT_PREFIX, RADIO_STATUS
+from wildfire_msgs_py.contract import RADIO_STATUS
 from wildfire_msgs_py.input_guard import (
     DropReason,
     RejectedMessage,
@@ -63,7 +61,6 @@ from wildfire_sim.episode import (
     REALTIME_AHEAD_NS,
     Mode,
     fire_step_tick,
-    initial_fire,
     stamp_ceiling_ns,
 )
 
@@ -113,6 +110,8 @@ class DeadlineOut(NamedTuple):
 
     stamp: int
     status: NodeStatus
+    radio: NodeStatus | None = None
+    """The radio links' status (limited links only)."""
 
 
 Output = StateOut | VisitOut | RadioOut | AckOut | DeadlineOut
@@ -198,6 +197,7 @@ class AgentProtocol:
         """The sensor's windows of the newest visited tick (None before the first): what the
         observation approach's camera images are made from."""
         self.received_tick = -1
+        self.ready_sent = False
 
     @property
     def keeps_belief(self) -> bool:
@@ -209,6 +209,15 @@ class AgentProtocol:
         100 x 100 grids per tick.
         """
         return (self.policy.needs_belief and self.radio is None) or self.mode is Mode.REALTIME
+
+    def on_startup(self, reports_heard: bool) -> bool:
+        """True once, when the node should say ready: the aggregator is known to listen to
+        our reports (``reports_heard``). An orderly start: reports are durable, so one
+        written before DDS matched both ends still arrives."""
+        if self.ready_sent or not reports_heard:
+            return False
+        self.ready_sent = True
+        return True
 
     # --- stamps -------------------------------------------------------------------------------
 
@@ -226,34 +235,6 @@ class AgentProtocol:
 
     def status_ceiling_ns(self) -> int:
         return stamp_ceiling_ns(self.status_tick)
-
-    @classmethod
-    def from_parameters(cls, p: Mapping[str, Any], now_ns: Callable[[], int]) -> AgentProtocol:
-        """The protocol of the agent node's parameters (``agent_node.PARAMETERS``)."""
-        k, n = p["aircraft"], p["n_aircraft"]
-        if k >= n:
-            raise AgentConfigError(f"aircraft {k}: expected 0..{n - 1} (n_aircraft)")
-        planner = RecedingHorizonConfig(p["rh_horizon"], p["rh_replan_every"], p["rh_restarts"])
-        start = AircraftState(
-            x_m=np.array([p["start_x"]]),
-            y_m=np.array([p["start_y"]]),
-            heading_rad=np.array([p["start_heading"]]),
-            bank_steps=np.array([p["start_bank_steps"]], dtype=np.int64),
-        )
-        policy = AircraftPolicy(p["policy"], k, n, p["seed"], planner, sensor=p["sensor"])
-        try:
-            comm = CommModel.parse(p["comm"])
-        except CommError as error:
-            raise AgentConfigError(str(error)) from None
-        radio = None
-        if not comm.ideal:
-            ignition = initial_fire(p["seed"], p["shape"]).burning[0]
-            radio = AircraftRadio(comm, k, n, p["seed"], ignition)
-        sensor = AircraftSensor(p["sensor"], p["pixel_error"], p["seed"], k)
-        name_tag = f"{AIRCRAFT_PREFIX}{k}"
-        return cls(
-            k, n, Mode(p["mode"]), policy, start, name_tag, now_ns, radio=radio, sensor=sensor
-        )
 
     # --- inputs -------------------------------------------------------------------------------
 
@@ -476,7 +457,8 @@ class AgentProtocol:
         """Deadline statistics once a second of flight (every 10 decisions), and at the end."""
         if not force and self.stats.decisions % DEADLINE_EVERY_DECISIONS:
             return []
-        return [DeadlineOut(self.stamp(tick), self.stats.node_status(self.name_tag))]
+        status = self.stats.node_status(self.name_tag)
+        return [DeadlineOut(self.stamp(tick), status, self.radio_status())]
 
 
 __all__ = [

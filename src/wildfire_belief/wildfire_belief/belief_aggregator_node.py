@@ -29,16 +29,15 @@ import sys
 import time
 from typing import Any
 
+from wildfire_belief.aggregator_parameters import PARAMETERS, aggregator_protocol
 from wildfire_belief.aggregator_protocol import (
     NAME,
     AckOut,
-    AggregatorProtocol,
     BeliefOut,
     LogOut,
     Output,
 )
-from wildfire_belief.filtered_aggregator import FilteredAggregator
-from wildfire_belief.sensors import SENSORS, check_sensing, noisy, report_window, sensors_of
+from wildfire_belief.sensors import report_window
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.belief_codec import belief_to_msg
 from wildfire_msgs_py.codecs import (
@@ -55,7 +54,6 @@ from wildfire_msgs_py.wire_checks import (
     checked_visit,
 )
 from wildfire_ros.node_support import (
-    ParamSpec,
     contract_publisher,
     contract_subscription,
     declare_parameters,
@@ -64,53 +62,9 @@ from wildfire_ros.node_support import (
 from wildfire_ros.runtime import Node
 from wildfire_sim.episode import (
     DECISION_PERIOD_NS,
-    EPISODE_DEFAULTS,
-    MODES,
     Mode,
-    initial_fire,
 )
 from wildfire_sim.errors import FireConfigError
-from wildfire_sim.shapes import Shape
-
-PARAMETERS = (
-    ParamSpec("n_aircraft", 2, "aircraft uav0..uav{n-1} whose visits are merged", 1, 64),
-    ParamSpec(
-        "seed", EPISODE_DEFAULTS.seed, "episode seed (fixes the ignition seed's fuel)", 0, 2**31 - 1
-    ),
-    ParamSpec(
-        "shape", EPISODE_DEFAULTS.shape, "ignition shape", choices=tuple(s.value for s in Shape)
-    ),
-    ParamSpec("mode", "lockstep", "lockstep (sim time) or realtime", choices=MODES),
-    ParamSpec(
-        "recover_timeout_s", 3.0, "how long a restarted aggregator waits for a copy", 0.0, 60.0
-    ),
-    ParamSpec(
-        "sensor",
-        "disc",
-        "the aircraft's sensor: disc or camera (camera0..3/cells)",
-        choices=SENSORS,
-    ),
-    ParamSpec("pixel_error", 0.0, "probability that a report flips, below 0.5", 0.0, 0.5),
-    ParamSpec(
-        "wind_filter",
-        False,
-        "estimate the wind with a particle filter of fire models for the filtered belief's "
-        "process term (needs pixel_error > 0)",
-    ),
-    ParamSpec(
-        "preburn_steps",
-        EPISODE_DEFAULTS.preburn_steps,
-        "fire steps burnt before the aircraft come (the filtered belief spreads its start)",
-        0,
-        1000,
-    ),
-    ParamSpec(
-        "reports",
-        True,
-        "acknowledge lockstep ticks (false when the agents decide on their own replicas and "
-        "the fire simulator does not wait for the aggregator)",
-    ),
-)
 
 
 class BeliefAggregatorNode(Node):
@@ -121,24 +75,10 @@ class BeliefAggregatorNode(Node):
         p = declare_parameters(self, PARAMETERS)
         self.n: int = p["n_aircraft"]
         self.seed: int = p["seed"]
-        mode = Mode(p["mode"])
-        sensor, pixel_error = p["sensor"], p["pixel_error"]
-        check_sensing(sensor, pixel_error, p["wind_filter"])
-        filtered = None
-        if noisy(sensor, pixel_error):
-            filtered = FilteredAggregator(
-                p["seed"], p["shape"], pixel_error, p["preburn_steps"], p["wind_filter"]
-            )
-        self.protocol = protocol = AggregatorProtocol(
-            self.n,
-            mode,
-            initial_fire(p["seed"], p["shape"]).burning[0],
-            lambda: self.get_clock().now().nanoseconds,
-            p["recover_timeout_s"],
-            reports=p["reports"],
-            filtered=filtered,
-            sources=sensors_of(sensor),
+        self.protocol = protocol = aggregator_protocol(
+            p, lambda: self.get_clock().now().nanoseconds
         )
+        mode, sensor = protocol.mode, p["sensor"]
         # Where the reports come from: the visit window, or one window per camera.
         self.report_specs = contract.report_topics(sensor)
         self.window_side = report_window(sensor)
@@ -164,7 +104,7 @@ class BeliefAggregatorNode(Node):
                     qos=latched,
                     guard=self.input_guard,
                 )
-        if filtered is not None:  # the score under noise needs the truth
+        if protocol.filtered is not None:  # the score under noise needs the truth
             contract_subscription(
                 self,
                 contract.FIRE_MAP,
