@@ -1,7 +1,8 @@
 """``wildfire run --foxglove``: a WebSocket client that speaks Foxglove's protocol sees the
 channels of a running system and decodes its messages, in real time and in lockstep; the
 lockstep episode is the one ``wildfire eval`` flies (the live view never touches the
-barrier); a taken port is one line before anything starts.
+barrier); the run flies on when the live view dies; a taken port is one line before anything
+starts.
 
 The real-time test also draws what the client decoded (fire, belief, paths, camera
 footprints, score): with ``WILDFIRE_WRITE_DOCS=1`` it writes the picture the documentation
@@ -13,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -122,6 +124,32 @@ def test_lockstep_run_is_watched_and_flies_as_eval(tmp_path: Path, dds_env: dict
     )
     reference = evaluate(make_vec_policy("random"), config, [seed]).episodes[0]
     assert summary["score"] == reference.score and summary["decisions"] == reference.decisions
+
+
+def test_the_run_flies_on_when_the_live_view_dies(tmp_path: Path, dds_env: dict[str, str]) -> None:
+    port = free_port()
+    run = start_run(tmp_path, dds_env, port, "--policy", "random", "--realtime",
+                    "--duration", "10", "--seed", "2")  # fmt: skip
+    try:
+        with FoxgloveClient(f"ws://127.0.0.1:{port}", connect_timeout_s=60) as client:
+            client.wait_for_channels({FIRE}, 30.0)
+        os.kill(live_view_pid(run.pid), signal.SIGKILL)
+    finally:
+        stdout, stderr = run.communicate(timeout=180)
+    assert run.returncode == 0, stderr
+    summary = json.loads(stdout)
+    assert summary["decisions"] == 100 and "live_view" in summary["lost_nodes"]
+    assert "node live_view died (signal 9)" in stderr and "flying on" in stderr
+
+
+def live_view_pid(launcher: int) -> int:
+    """The live view started by the launcher ``launcher`` (another run may fly beside it)."""
+    out = subprocess.run(["ps", "-eww", "-o", "pid,ppid,args"], capture_output=True, text=True)
+    for line in out.stdout.splitlines()[1:]:
+        pid, parent, args = [*line.split(None, 2), ""][:3]
+        if parent == str(launcher) and "live_view_node" in args:
+            return int(pid)
+    raise AssertionError("no live view among the launcher's children")
 
 
 def test_a_taken_port_is_one_line(dds_env: dict[str, str]) -> None:
