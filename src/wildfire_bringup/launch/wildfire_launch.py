@@ -3,7 +3,8 @@
 Real-time mode (wall clocks): the fire simulator, the belief aggregator and one agent per
 aircraft in namespaces ``/uav0`` ... Start poses are spread on a circle around the map
 centre; parameters come from ``config/wildfire.yaml`` of this package. (``wildfire run``
-draws start poses from the seed and offers lockstep mode.)
+draws start poses from the seed and offers lockstep mode.) ``foxglove:=8765`` adds the
+Foxglove live view on that 127.0.0.1 port.
 """
 
 from __future__ import annotations
@@ -77,6 +78,17 @@ def _nodes(context, *_args, **_kwargs):
                 ],
             )
         )
+    port = LaunchConfiguration("foxglove").perform(context)
+    if port:
+        nodes.append(
+            Node(
+                package="wildfire_bringup",
+                executable="live_view",
+                name="live_view",
+                parameters=[{"port": int(port), "n_aircraft": n}],
+                output="screen",
+            )
+        )
     return nodes
 
 
@@ -92,6 +104,11 @@ def generate_launch_description() -> LaunchDescription:
                 description="rh, rh-paper, random or the path of a TorchScript .pt policy",
             ),
             DeclareLaunchArgument("seed", default_value="0", description="episode seed"),
+            DeclareLaunchArgument(
+                "foxglove",
+                default_value="",
+                description="serve the run to Foxglove on this 127.0.0.1 port (empty: not)",
+            ),
             OpaqueFunction(function=_nodes),
         ]
     )
