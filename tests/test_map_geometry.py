@@ -130,3 +130,51 @@ def test_cli_map_size_flies_in_eval_and_bad_sizes_get_one_line() -> None:
     refused = _wildfire("run", "--map-size", "200,200", "--duration", "1")
     assert refused.returncode == 2
     assert refused.stderr.count("\n") == 1 and "tiles" in refused.stderr, refused.stderr
+
+
+def test_ego_images_read_a_window_equal_to_the_whole_map() -> None:
+    """On a field map an image warps only the cells around its aircraft: the very pixels
+    that warping the whole map gives, near the edges and off the map too."""
+    import cv2
+
+    from wildfire_belief.ego_image import IMAGE_SIZE, ego_affine, ego_images
+
+    rng = np.random.default_rng(4)
+    burning = rng.random((2, 400, 500)) < 0.3
+    age = rng.integers(0, 256, size=(2, 400, 500)).astype(np.float32)
+    x = np.concatenate([rng.uniform(-800, 5800, size=(2, 6)), [[3.0], [4999.0]]], axis=1)
+    y = np.concatenate([rng.uniform(-800, 4800, size=(2, 6)), [[3999.0], [2.0]]], axis=1)
+    heading = rng.uniform(-np.pi, np.pi, size=x.shape)
+    images = ego_images(burning, age, x, y, heading)
+    for env in range(2):
+        source = np.stack([burning[env].astype(np.float32), age[env] / 255.0], axis=-1)
+        for k in range(x.shape[1]):
+            whole = cv2.warpAffine(
+                np.ascontiguousarray(source, dtype=np.float32),
+                ego_affine(x[env, k], y[env, k], heading[env, k]),
+                (IMAGE_SIZE, IMAGE_SIZE),
+                flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+                borderMode=cv2.BORDER_CONSTANT,
+                borderValue=(0.0, 1.0, 0.0, 0.0),
+            )
+            np.testing.assert_array_equal(images[env, k], whole.transpose(2, 0, 1))
+
+
+def test_parallel_api_at_field_scale() -> None:
+    """PettingZoo's own API test passes on a 500 x 500 map with 16 aircraft; ``state()`` is a
+    100 x 100 coarse map there, as ``state_space`` declares."""
+    from pettingzoo.test import parallel_api_test
+
+    from wildfire_learning.parallel_env import WildfireParallelEnv
+
+    config = EnvConfig(
+        n_aircraft=16, observation="belief", reward="belief", geometry=MapGeometry(500, 500),
+        max_duration_s=3.0,
+    )  # fmt: skip
+    env = WildfireParallelEnv(config)
+    parallel_api_test(env, num_cycles=40)
+    env.reset(seed=3)
+    state = env.state()
+    assert env.state_space.contains(state) and state.shape == (3, 100, 100)
+    # The seed's 5 x 5 block burns in the centre 5-cell pixels: fractions, not 0/1.
+    assert 0 < state[0].max() <= 1 and state[0].sum() * 25 == env._env.fire.burning[0].sum()

@@ -7,6 +7,7 @@ import json
 import shutil
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +17,7 @@ import pytest
 from wildfire_agent.policy_names import ORACLE_POLICY, SHIPPED_POLICIES
 from wildfire_learning import results_report
 from wildfire_learning.env import EnvConfig
+from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES
 from wildfire_learning.results_report import Scenario, results_markdown, table_cells
@@ -212,3 +214,23 @@ def test_an_oracle_result_is_keyed_by_its_incumbents_files(
     files["belief"].write_bytes(b"retrained")
     assert key(ORACLE_POLICY) != before
     assert key("rh") == planner
+
+
+def test_field_scenarios_parse_and_fly(tmp_path: Path) -> None:
+    """``field:`` and ``landcover:`` scenarios: their own map, seeded fires pre-burnt to an
+    area, the generated CORINE raster; a bad one is one line."""
+    field = Scenario.parse("field:500x500:ignitions=3:aircraft=8")
+    assert field.key == "field500x500_ign3_8aircraft" and field.is_field
+    config = field.config(EnvConfig(), tmp_path)
+    assert config.geometry.shape == (500, 500) and config.n_aircraft == 8
+    assert config.landscape is not None and config.landscape.ignitions == 3
+    assert config.preburn_area_m2 == 300_000.0
+    cover = Scenario.parse("landcover:300x300:ignitions=2:aircraft=4").config(EnvConfig(), tmp_path)
+    assert cover.landscape is not None and cover.landscape.fuel is not None
+    assert (cover.landscape.fuel.high == 0).any()  # the lake, the village, the road
+    summary = evaluate(make_vec_policy("rh"), replace(cover, max_duration_s=10.0), [3])
+    assert summary.to_json()["score_mean"] > 0
+    for bad in ("field:500x500:aircraft=8", "field:10x10:ignitions=1:aircraft=1",
+                "landcover:301x300:ignitions=1:aircraft=2"):  # fmt: skip
+        with pytest.raises(LearningError, match="scenario"):
+            Scenario.parse(bad)

@@ -10,7 +10,7 @@ for the team arrays, so for the same inputs it picks the action the environment 
 
 * randomness (random actions, planner restarts) comes from ``generator(seed, AIRCRAFT, k)``;
 * the planner sees the whole team ``(1, n)``, ownship ``k`` and the others in
-  ``pairwise.other_indices`` order, on the true fire map of the tick;
+  ``pairwise.nearest_others`` order, on the true fire map of the tick;
 * a Q-network gets a batch of one image (``approaches``) and the ``K`` normalised pairwise
   states of the ownship; with several other aircraft it sums the pairwise Q-values;
 * a vector policy of your own gets a one-episode environment (``user_policy.OneAircraftEnv``,
@@ -124,7 +124,7 @@ class AircraftPolicy:
         if self.policy is None:
             return self.user_action(team_2d, burning, belief, age_s, reports)
         if isinstance(self.policy, RecedingHorizonPolicy):
-            others = pairwise.other_indices(self.n_aircraft)[k]
+            others = pairwise.nearest_others(team_2d)[0, k]
             own = AircraftState(*(field[0, k : k + 1] for field in team_2d))
             peers = AircraftState(*(field[0, others][None] for field in team_2d))
             if not self.policy.config.believed_map:

@@ -22,7 +22,7 @@ import numpy as np
 from wildfire_agent import camera_view, sensor
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.rewards import ObservationRewardWeights, proximity_sum
-from wildfire_belief.ego_image import IMAGE_SIZE, ego_images
+from wildfire_belief.ego_image import IMAGE_SIZE, AgeWindow, ego_images
 
 
 class Approach(StrEnum):
@@ -65,8 +65,11 @@ def sensor_images(truth: np.ndarray, pose: AircraftState) -> np.ndarray:
     return images[:, :, None].astype(np.float32)
 
 
-def belief_images(belief: np.ndarray, age_s: np.ndarray, pose: AircraftState) -> np.ndarray:
-    """``belief`` images (E, N, 2, 100, 100) float32 from (E, H, W) beliefs and their ages.
+def belief_images(
+    belief: np.ndarray, age_s: np.ndarray | AgeWindow, pose: AircraftState
+) -> np.ndarray:
+    """``belief`` images (E, N, 2, 100, 100) float32 from (E, H, W) beliefs and their ages
+    (an array, or a function of the window an image reads: ``ego_image.AgeWindow``).
 
     ``belief`` is the team's probability of burning per cell: the believed map itself (bool)
     under the paper's perfect disc; under noisy sensing the filtered belief in the whole

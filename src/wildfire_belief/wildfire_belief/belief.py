@@ -26,14 +26,15 @@ AGE_CAP_TICKS = int(AGE_CAP_S * TICKS_PER_S)
 class SharedBelief:
     """Belief maps of ``num_envs`` environments.
 
-    Arrays: ``burning`` (E, H, W) bool; ``last_visit`` (E, H, W) int64 tick of the last
+    Arrays: ``burning`` (E, H, W) bool; ``last_visit`` (E, H, W) int32 tick of the last
     visit; ``now`` (E,) int64 current tick.
     """
 
     def __init__(self, num_envs: int, geometry: MapGeometry = PAPER_MAP) -> None:
         self.geometry = geometry
         self.burning = np.zeros((num_envs, *geometry.shape), dtype=bool)
-        self.last_visit = np.full((num_envs, *geometry.shape), -AGE_CAP_TICKS, np.int64)
+        # int32: 6.8 years of decisions, and half the bytes of a field map's clock.
+        self.last_visit = np.full((num_envs, *geometry.shape), -AGE_CAP_TICKS, np.int32)
         self.now = np.zeros(num_envs, dtype=np.int64)
 
     @property
@@ -76,6 +77,10 @@ class SharedBelief:
     def age_s(self) -> np.ndarray:
         """Seconds since each cell was last visited, capped at 255, (E, H, W) float32."""
         return age_seconds(self.now[:, None, None], self.last_visit)
+
+    def age_window(self, env: int, rows: slice, cols: slice) -> np.ndarray:
+        """:meth:`age_s` of one environment's window, (h, w) float32 (an ego image's)."""
+        return age_seconds(self.now[env], self.last_visit[env, rows, cols])
 
 
 def age_seconds(now: np.ndarray, last: np.ndarray) -> np.ndarray:

@@ -10,9 +10,16 @@ aircraft heading north sees the map itself, translated. Channels: the probabilit
 outside the map: burning 0, age 1 (never seen). Sampling is nearest-cell (OpenCV
 ``warpAffine`` with ``INTER_NEAREST``), so every pixel is one cell's value: a binary belief
 stays binary.
+
+On a field map an image reads only the cells around its aircraft: a window of
+:data:`WINDOW_SPAN` cells a side that holds the image's rotated square, on each axis longer
+than that (the paper's 100-cell map is warped whole, as it always was). Ages may then be
+given as a function of the window (``AgeWindow``), so no map-sized age array is made.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import cv2
 import numpy as np
@@ -23,6 +30,14 @@ IMAGE_SIZE = 100
 """Pixels per side of the ego image (one map cell per pixel)."""
 IMAGE_CENTRE = IMAGE_SIZE // 2
 """Pixel (row and column) where the aircraft sits."""
+WINDOW_REACH = 72
+"""Cells from the aircraft to the window's edge: the image's corners lie 50 sqrt 2 = 70.7
+cells away, and nearest sampling reads at most one cell further."""
+WINDOW_SPAN = 2 * WINDOW_REACH + 2
+"""Side of the window an image reads; a map axis no longer than this is read whole."""
+
+AgeWindow = Callable[[int, slice, slice], np.ndarray]
+"""``age(env, rows, cols)``: the (h, w) float32 ages of one environment's window."""
 
 
 def ego_affine(x_m: float, y_m: float, heading_rad: float) -> np.ndarray:
@@ -47,7 +62,7 @@ def ego_affine(x_m: float, y_m: float, heading_rad: float) -> np.ndarray:
 
 def ego_images(
     burning: np.ndarray,
-    age_s: np.ndarray,
+    age_s: np.ndarray | AgeWindow,
     x_m: np.ndarray,
     y_m: np.ndarray,
     heading_rad: np.ndarray,
@@ -55,17 +70,30 @@ def ego_images(
     """Ego belief images of a batch of aircraft.
 
     ``burning`` (E, H, W), the probability of burning (bool or float in [0, 1]), and
-    ``age_s`` (E, H, W) are the shared belief; poses are (E, N). Returns (E, N, 2, 100, 100)
-    float32.
+    ``age_s`` (E, H, W), or a function of the window, are the shared belief; poses are
+    (E, N). Returns (E, N, 2, 100, 100) float32.
     """
     num_envs, num_aircraft = np.shape(x_m)
+    height, width = burning.shape[-2:]
+    ages = age_s if callable(age_s) else lambda env, rows, cols: age_s[env, rows, cols]
     out = np.empty((num_envs, num_aircraft, 2, IMAGE_SIZE, IMAGE_SIZE), dtype=np.float32)
     pixels = np.empty((IMAGE_SIZE, IMAGE_SIZE, 2), dtype=np.float32)
+    whole = height <= WINDOW_SPAN and width <= WINDOW_SPAN
     for env in range(num_envs):
-        source = np.stack([burning[env].astype(np.float32), age_s[env] / 255.0], axis=-1)
-        source = np.ascontiguousarray(source, dtype=np.float32)
+        if whole:
+            source = _source(burning[env], ages(env, slice(None), slice(None)))
         for k in range(num_aircraft):
             matrix = ego_affine(x_m[env, k], y_m[env, k], heading_rad[env, k])
+            if not whole:
+                rows = _axis_window(y_m[env, k] / CELL_SIZE_M, height)
+                cols = _axis_window(x_m[env, k] / CELL_SIZE_M, width)
+                if rows.start == rows.stop or cols.start == cols.stop:
+                    out[env, k, 0], out[env, k, 1] = 0.0, 1.0  # far off the map: never seen
+                    continue
+                source = _source(burning[env, rows, cols], ages(env, rows, cols))
+                # The window's origin: an integer shift of the map's coordinates (exact).
+                matrix[0, 2] -= cols.start
+                matrix[1, 2] -= rows.start
             cv2.warpAffine(
                 source,
                 matrix,
@@ -79,4 +107,26 @@ def ego_images(
     return out
 
 
-__all__ = ["IMAGE_CENTRE", "IMAGE_SIZE", "ego_affine", "ego_images"]
+def _source(burning: np.ndarray, age_s: np.ndarray) -> np.ndarray:
+    """The two channels OpenCV samples, (h, w, 2) float32."""
+    source = np.empty((*burning.shape, 2), dtype=np.float32)
+    source[..., 0] = burning
+    np.divide(age_s, np.float32(255.0), out=source[..., 1], casting="unsafe")
+    return source
+
+
+def _axis_window(centre: float, size: int) -> slice:
+    """The window's cells along an axis around the aircraft's cell ``centre``, clipped."""
+    low = int(np.floor(centre)) - WINDOW_REACH
+    return slice(min(max(low, 0), size), min(max(low + WINDOW_SPAN, 0), size))
+
+
+__all__ = [
+    "IMAGE_CENTRE",
+    "IMAGE_SIZE",
+    "WINDOW_REACH",
+    "WINDOW_SPAN",
+    "AgeWindow",
+    "ego_affine",
+    "ego_images",
+]

@@ -50,6 +50,10 @@ class ReportClock:
         """Seconds since each cell was last reported, capped at 255, (E, H, W) float32."""
         return age_seconds(self.now[:, None, None], self.last_report)
 
+    def age_window(self, env: int, rows: slice, cols: slice) -> np.ndarray:
+        """:meth:`age_s` of one environment's window, (h, w) float32 (an ego image's)."""
+        return age_seconds(self.now[env], self.last_report[env, rows, cols])
+
     def _reset_clock(self, env_ids: np.ndarray) -> None:
         self.now[env_ids] = 0
         self.last_report[env_ids] = -AGE_CAP_TICKS

@@ -86,8 +86,11 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "--scenarios",
         nargs="+",
         default=list(PAPER_SCENARIOS),
-        metavar="SHAPE:N",
-        help=f"fire shape and aircraft count (default, the paper's: {' '.join(PAPER_SCENARIOS)})",
+        metavar="SCENARIO",
+        help="SHAPE:N, a fire shape and aircraft count (default, the paper's: "
+        f"{' '.join(PAPER_SCENARIOS)}), or a field scenario: field:RxC:ignitions=K:aircraft=N "
+        "(seeded fires on an R x C map) or landcover:RxC:ignitions=K:aircraft=N (on a "
+        "generated CORINE raster)",
     )
     parser.add_argument("--episodes", type=positive_int, default=20, metavar="K")
     parser.add_argument(
@@ -175,7 +178,7 @@ def collect_results(
             print(f"{label}: {score} ({note})", file=sys.stderr)
 
     for scenario in scenarios:
-        config = replace(base, n_aircraft=scenario.aircraft, shapes=(scenario.shape,))
+        config = scenario.config(base, args.out / "rasters")
         for policy in policies:
             policy_file = policy_source(policy)  # a network's file, or your policy's module
             identity = fingerprint(

@@ -13,7 +13,8 @@ Observation space (``observation="obs"`` or ``"belief"``)
     ``image``: the sensor image (1, 30, 40) in {0, 1} (under camera sensing the four camera
     images (4, 30, 20) in {0, 0.5, 1}: ``wildfire_agent.camera_view``), or the ego belief
     image (2, 100, 100) in [0, 1]; ``state``: normalised pairwise states (K, 5),
-    K = max(N - 1, 1).
+    K = max(min(N - 1, 8), 1): the nearest 8 peers in a larger fleet
+    (``pairwise.nearest_others``).
     ``observation="none"`` skips images (for the receding-horizon and random policies).
 Rewards
     ``reward="obs"``: the observation-based reward r1 + r2 + r3 + r4 of each aircraft (under
@@ -476,7 +477,8 @@ class WildfireVecEnv:
         elif kind == Approach.OBS:
             images = sensor_images(self.truth, self.aircraft)
         elif self.radio is None:
-            images = belief_images(self.belief_probability(), self.belief_age_s(), self.aircraft)
+            clock = self.belief if self.sensing is None else self.sensing.belief
+            images = belief_images(self.belief_probability(), clock.age_window, self.aircraft)
         else:
             images = self.radio.belief_images(self.aircraft)
         return {"image": images, "state": self.pair_states()}

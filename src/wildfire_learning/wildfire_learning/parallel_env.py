@@ -2,8 +2,10 @@
 
 A thin wrapper over :class:`~wildfire_learning.env.WildfireVecEnv` with one environment:
 see that module for the spaces, rewards, starting state and episode end. Each agent's
-observation is a dict ``{"image": ..., "state": ...}``; ``state()`` is the global view
-(true burning grid, belief, and every aircraft's pose).
+observation is a dict ``{"image": ..., "state": ...}``; ``state()`` is the global view:
+true burning, believed burning and belief age / 255, at most :data:`STATE_SIDE` pixels a side
+(on a field map each pixel is the mean of a block of cells: a coarse map; ``state_space``
+says its shape).
 """
 
 from __future__ import annotations
@@ -15,8 +17,29 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from wildfire_agent.approaches import APPROACHES, image_shape
-from wildfire_agent.pairwise import STATE_SIZE
+from wildfire_agent.pairwise import STATE_SIZE, peer_count
 from wildfire_learning.env import EnvConfig, WildfireVecEnv
+from wildfire_sim.grid import MapGeometry
+
+STATE_SIDE = 100
+"""Most pixels along a side of ``state()``: the paper's map cell for cell, a field map in
+blocks of ``ceil(side / 100)`` cells."""
+
+
+def state_block(geometry: MapGeometry) -> int:
+    """Cells per side of one ``state()`` pixel on ``geometry``."""
+    return -(-max(geometry.rows, geometry.cols) // STATE_SIDE)
+
+
+def coarse(grid: np.ndarray, block: int, outside: float) -> np.ndarray:
+    """Block means of an (H, W) grid, float32; the last blocks padded with ``outside``."""
+    grid = np.asarray(grid, dtype=np.float32)
+    if block == 1:
+        return grid
+    rows, cols = (-(-side // block) * block for side in grid.shape)
+    padded = np.full((rows, cols), outside, dtype=np.float32)
+    padded[: grid.shape[0], : grid.shape[1]] = grid
+    return padded.reshape(rows // block, block, cols // block, block).mean(axis=(1, 3))
 
 
 class WildfireParallelEnv(ParallelEnv):  # type: ignore[misc]  # pettingzoo is untyped
@@ -36,7 +59,7 @@ class WildfireParallelEnv(ParallelEnv):  # type: ignore[misc]  # pettingzoo is u
         self.agents: list[str] = []
         self._env = WildfireVecEnv(self.config, 1)
         shape = image_shape(self.config.observation, self.config.sensor)
-        pairs = max(self.config.n_aircraft - 1, 1)
+        pairs = peer_count(self.config.n_aircraft)
         self._observation_space = spaces.Dict(
             {
                 "image": spaces.Box(0.0, 1.0, shape, np.float32),
@@ -44,6 +67,9 @@ class WildfireParallelEnv(ParallelEnv):  # type: ignore[misc]  # pettingzoo is u
             }
         )
         self._action_space = spaces.Discrete(2)
+        self._block = state_block(self.config.geometry)
+        rows, cols = (-(-side // self._block) for side in self.config.geometry.shape)
+        self.state_space = spaces.Box(0.0, 1.0, (3, rows, cols), np.float32)
         self._seed_rng = np.random.default_rng()
 
     def observation_space(self, agent: str) -> spaces.Space[Any]:
@@ -93,10 +119,16 @@ class WildfireParallelEnv(ParallelEnv):  # type: ignore[misc]  # pettingzoo is u
         return observations, rewards, terminations, truncations, infos
 
     def state(self) -> np.ndarray:
-        """Global view: (3, 100, 100) true burning, believed burning, belief age / 255."""
-        env = self._env
+        """Global view, ``state_space``: true burning, believed burning, belief age / 255
+        (outside the map: not burning, age 1)."""
+        env, block = self._env, self._block
+        age = env.belief.age_s()[0] / np.float32(255.0)
         return np.stack(
-            [env.fire.burning[0], env.belief.burning[0], env.belief.age_s()[0] / 255.0]
+            [
+                coarse(env.fire.burning[0], block, 0.0),
+                coarse(env.belief.burning[0], block, 0.0),
+                coarse(age, block, 1.0),
+            ]
         ).astype(np.float32)
 
     @property
@@ -105,4 +137,4 @@ class WildfireParallelEnv(ParallelEnv):  # type: ignore[misc]  # pettingzoo is u
         return int(self._env.scores[0])
 
 
-__all__ = ["WildfireParallelEnv"]
+__all__ = ["STATE_SIDE", "WildfireParallelEnv", "coarse", "state_block"]

@@ -37,11 +37,10 @@ from wildfire_agent.policy_names import (
     resolve_policy_path,
 )
 from wildfire_belief.radio import IDEAL, CommModel
-from wildfire_learning.errors import LearningError
 from wildfire_learning.model_card import policy_sha256
 from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES
+from wildfire_learning.report_scenarios import Scenario
 from wildfire_learning.summary_stats import standard_error
-from wildfire_sim.shapes import Shape
 
 POLICY_LABELS = {
     "obs": "observation DQN",
@@ -84,33 +83,6 @@ PAPER_RESULTS: dict[str, dict[str, tuple[float, float]]] = {
 """Julian & Kochenderfer's results: mean and standard error per scenario; its
 receding horizon is the uncoordinated one, ``rh-paper`` here."""
 PAPER_SCENARIOS = ("circular:2", "circular:3", "circular:4", "t:2", "arc:2")
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """A fire shape flown by a team of ``aircraft``."""
-
-    shape: str
-    aircraft: int
-
-    @classmethod
-    def parse(cls, text: str) -> Scenario:
-        """``SHAPE:N``, e.g. ``circular:2``."""
-        shape, sep, count = text.partition(":")
-        if not sep or not count.isdigit() or int(count) < 1:
-            raise LearningError(
-                f"scenario {text!r}: expected SHAPE:N with N >= 1 aircraft, e.g. circular:2"
-            )
-        return cls(Shape.parse(shape).value, int(count))
-
-    @property
-    def key(self) -> str:
-        """``circular_2aircraft``: the key model cards and the paper table use."""
-        return f"{self.shape}_{self.aircraft}aircraft"
-
-    @property
-    def title(self) -> str:
-        return f"{'T' if self.shape == 't' else self.shape}, {self.aircraft} aircraft"
 
 
 def policy_id(policy: str) -> str:
@@ -227,11 +199,15 @@ class Cell:
 def paired_ratio(
     scores: np.ndarray, baseline: dict[str, Any] | None
 ) -> tuple[float | None, float | None]:
-    """Ratio of means to a baseline's evaluation on the same seeds, and its standard error."""
+    """Ratio of means to a baseline's evaluation on the same seeds, and its standard error
+    (None where there is no baseline, or it scored nothing: every fire reached the border
+    before the flight, say)."""
     if baseline is None:
         return None, None
     base_scores = np.array(baseline["scores"])
     mean = base_scores.mean()
+    if mean == 0:
+        return None, None
     return float(scores.mean() / mean), standard_error(scores - base_scores) / float(mean)
 
 

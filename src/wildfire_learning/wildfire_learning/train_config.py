@@ -24,7 +24,7 @@ from typing import Any
 from torch import nn
 
 from wildfire_agent.approaches import APPROACHES, IMAGE_SHAPES, image_shape
-from wildfire_agent.pairwise import STATE_SIZE
+from wildfire_agent.pairwise import STATE_SIZE, peer_count
 from wildfire_agent.policy_names import ORACLE_POLICY, PLANNER_POLICIES
 from wildfire_belief.radio import CommError, CommModel
 from wildfire_learning.architectures import ARCHITECTURES, build_q_network, network_name
@@ -382,7 +382,7 @@ class TrainState:
 
 def replay_shapes(config: TrainConfig) -> tuple[tuple[int, int, int], tuple[int, int]]:
     """Shapes of a replay frame: the image (C, H, W) and the pairwise states (K, 5)."""
-    return image_shape(config.approach, config.sensor), (max(config.n_aircraft - 1, 1), STATE_SIZE)
+    return image_shape(config.approach, config.sensor), (peer_count(config.n_aircraft), STATE_SIZE)
 
 
 def config_from_dict(values: Mapping[str, Any]) -> TrainConfig:

@@ -20,7 +20,7 @@ from torch import nn
 
 from wildfire_agent import user_policy
 from wildfire_agent.dynamics import AircraftState
-from wildfire_agent.pairwise import other_indices
+from wildfire_agent.pairwise import NEAREST_PEERS, nearest_others, other_indices
 from wildfire_agent.policies import RandomPolicy, TorchScriptPolicy, greedy_actions_and_values
 from wildfire_agent.policy_names import (
     ORACLE_POLICY,
@@ -43,11 +43,20 @@ def others_of(views: AircraftState) -> AircraftState:
     """For each of the E * N aircraft, the poses it knows of the other aircraft of its
     episode, (P, K), from the team views (E, N, N) of ``WildfireVecEnv.team_views``."""
     n = views.x_m.shape[-1]
-    others = other_indices(n)
-    receivers = np.arange(n)[:, None]
     # Explicit sizes: alone (N = 1) each aircraft knows of no other, and -1 cannot be inferred.
     count = views.x_m.shape[0] * n
-    return AircraftState(*(f[:, receivers, others].reshape(count, others.shape[1]) for f in views))
+    if n - 1 <= NEAREST_PEERS:
+        others = other_indices(n)
+        receivers = np.arange(n)[:, None]
+        return AircraftState(
+            *(f[:, receivers, others].reshape(count, others.shape[1]) for f in views)
+        )
+    # A large fleet: each plans with the nearest peers it knows of (``pairwise``).
+    own = np.arange(n)
+    chosen = nearest_others(views)[:, own, own]  # (E, N, K)
+    return AircraftState(
+        *(np.take_along_axis(f, chosen, axis=-1).reshape(count, NEAREST_PEERS) for f in views)
+    )
 
 
 def map_index(env: WildfireVecEnv, believed_map: bool) -> np.ndarray:
