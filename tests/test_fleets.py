@@ -89,3 +89,13 @@ def test_eval_flies_32_aircraft_on_a_10_km_map() -> None:
     summary = json.loads(done.stdout)
     assert summary["aircraft"] == 32 and summary["map_size"] == [1000, 1000]
     assert summary["ignitions"] == 4 and summary["score_mean"] > 0
+
+
+def test_the_oracle_says_where_it_stops() -> None:
+    code = "import sys; from wildfire_cli import main; sys.exit(main(sys.argv[1:]))"
+    done = subprocess.run(
+        [sys.executable, "-c", code, "eval", "--policy", "oracle", "--map-size", "300,300"],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 2 and "affordable up to 40,000 cells" in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1

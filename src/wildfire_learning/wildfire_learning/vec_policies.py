@@ -31,6 +31,7 @@ from wildfire_agent.policy_names import (
 from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
 from wildfire_agent.rewards import FireFieldMaps
 from wildfire_learning.env import EnvConfig, VecPolicy, WildfireVecEnv
+from wildfire_learning.errors import LearningError
 from wildfire_learning.oracle import OracleVecPolicy
 
 
@@ -204,10 +205,20 @@ class UserVecPolicy:
         )
 
 
+ORACLE_MAX_CELLS = 40_000
+"""The largest map the clairvoyant bound flies (measured: see :func:`check_world`)."""
+
+
 def check_world(policy: VecPolicy, config: EnvConfig) -> None:
     """Refuse (one line) a world ``policy`` cannot fly: its observation there, or a network
     trained on other images."""
     replace(config, observation=policy.observation).validate()
+    if isinstance(policy, OracleVecPolicy) and config.geometry.cells > ORACLE_MAX_CELLS:
+        raise LearningError(
+            f"oracle: affordable up to {ORACLE_MAX_CELLS:,} cells (200 x 200), not "
+            f"{config.geometry.text}: it plans on the whole known future of the map, and a "
+            "60 s flight of 4 aircraft on 200 x 200 already plans for 48 s"
+        )
     if isinstance(policy, QNetworkVecPolicy):
         policy.policy.check_sensor(config.sensor)
 
@@ -234,6 +245,7 @@ def make_vec_policy(
 
 
 __all__ = [
+    "ORACLE_MAX_CELLS",
     "GreedyVecPolicy",
     "QNetworkVecPolicy",
     "RandomVecPolicy",
