@@ -100,6 +100,22 @@ def dds_env() -> dict[str, str]:
 
 SYSTEM_MODULES = {"test_multihost.py", "test_network_faults.py", "test_network_isolation.py"}
 """Modules whose tests build network namespaces or start systems without the ``dds`` marker."""
+QUICK_MODULES = {
+    "test_msgs_codecs.py",  # wildfire_msgs_py
+    "test_map_geometry.py",
+    "test_dds_params.py",  # wildfire_ros
+    "test_fire.py",  # wildfire_sim
+    "test_episode.py",
+    "test_radio.py",  # wildfire_belief
+    "test_dynamics.py",  # wildfire_agent
+    "test_policy_names.py",
+    "test_env.py",  # wildfire_learning
+    "test_run_params.py",  # wildfire_bringup, wildfire_cli (one lockstep system)
+    "test_core_cli.py",  # wildfire_cli
+    "test_bench_cli.py",  # wildfire_bench, wildfire_testbed
+}
+"""Modules of marker ``quick`` (``scripts/test.sh --quick``): a few minutes that touch every
+package, for the edit loop. The full suite is what CI runs."""
 
 
 @pytest.hookimpl(tryfirst=True)
@@ -118,6 +134,8 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     together let two systems run at once: two floods side by side in CI, a 15 s lockstep
     flight past its 270 s limit (32 s alone)."""
     for item in items:
+        if item.path.name in QUICK_MODULES:
+            item.add_marker(pytest.mark.quick)
         if item.get_closest_marker("xdist_group") is not None:
             continue  # a test that chose its group itself
         if item.get_closest_marker("dds") is not None or item.path.name in SYSTEM_MODULES:
