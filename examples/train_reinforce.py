@@ -1,7 +1,7 @@
 """Train a policy of your own with a loop of your own: REINFORCE on the PettingZoo env.
 
 CleanRL-style, in one file: hyperparameters in a dataclass parsed from the command line, one
-explicit training loop over :class:`~wildfire_learning.parallel_env.WildfireParallelEnv`
+explicit training loop over :class:`~wildfire_world.parallel_env.WildfireParallelEnv`
 (the PettingZoo parallel API: one dict entry per aircraft), the aircraft sharing one small
 policy network, each aircraft's discounted return weighting its own log-probabilities.
 
@@ -27,8 +27,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from wildfire_learning.env import EnvConfig
-from wildfire_learning.parallel_env import WildfireParallelEnv
+from wildfire_world.env import EnvConfig
+from wildfire_world.parallel_env import WildfireParallelEnv
 
 
 @dataclass

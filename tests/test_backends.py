@@ -19,10 +19,10 @@ from pathlib import Path
 
 import pytest
 
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.vec_policies import make_vec_policy
 from wildfire_ros.runtime import BACKEND
+from wildfire_world.env import EnvConfig
 
 pytestmark = [pytest.mark.dds, pytest.mark.timeout(300)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")

@@ -18,13 +18,13 @@ from wildfire_learning.bag_transitions import (
     rebuild_transitions,
     transitions_from_bags,
 )
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
 from wildfire_msgs_py import belief_codec, codecs, contract
 from wildfire_ros.bag import BagWriter
 from wildfire_ros.runtime import serialize_message as serialize
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 DECISION_NS = 100_000_000
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))

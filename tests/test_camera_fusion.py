@@ -13,7 +13,7 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_belief.filtered_aggregator import FilteredAggregator
 from wildfire_belief.sensors import sensors_of
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 
 @pytest.mark.parametrize(("sensor", "pixel_error"), [("camera", 0.1), ("disc", 0.2)])

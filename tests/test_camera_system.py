@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from wildfire_learning.bag_transitions import transitions_from_bags
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.replay import ImageCodec
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 
 def time_ns(msg: object) -> int:

@@ -18,9 +18,9 @@ from wildfire_agent.camera_view import BURNING, CLEAR, NOTHING, camera_images, r
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.rewards import ObservationRewardWeights
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 CAMERA_WORLD = EnvConfig(observation="obs", reward="obs", sensor="camera", pixel_error=0.1)
 POSES = [

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from pettingzoo.test import parallel_api_test, parallel_seed_test
 
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
-from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import evaluate
-from wildfire_learning.parallel_env import WildfireParallelEnv
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig, WildfireVecEnv
+from wildfire_world.errors import WorldError
+from wildfire_world.parallel_env import WildfireParallelEnv
 
 
 def rollout(env: WildfireVecEnv, seeds, steps: int, action_seed: int = 0):
@@ -90,9 +90,9 @@ def test_pettingzoo_conformance():
 
 
 def test_bad_configuration_is_named():
-    with pytest.raises(LearningError, match="aircraft"):
+    with pytest.raises(WorldError, match="aircraft"):
         EnvConfig(n_aircraft=0).validate()
-    with pytest.raises(LearningError, match="observation"):
+    with pytest.raises(WorldError, match="observation"):
         EnvConfig(observation="camera").validate()
 
 

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 import yaml
 
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_sim.episode import (
     DECISIONS_PER_FIRE_STEP,
     EPISODE_DEFAULTS,
@@ -18,6 +17,7 @@ from wildfire_sim.episode import (
     decisions_in,
     fire_at_border,
 )
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG_FILES = sorted([*REPO.glob("config/*.yaml"), *REPO.glob("src/*/config/*.yaml")])

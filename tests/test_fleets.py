@@ -17,10 +17,10 @@ from wildfire_agent.pairwise import (
     pairwise_states,
     peer_count,
 )
-from wildfire_learning.env import EnvConfig, draw_scenario
 from wildfire_learning.vec_policies import others_of
 from wildfire_msgs_py.map_geometry import MapGeometry
 from wildfire_sim.landscape import Landscape
+from wildfire_world.env import EnvConfig, draw_scenario
 
 
 def fleet(n: int, seed: int = 0, batch: tuple[int, ...] = ()) -> AircraftState:

@@ -12,13 +12,13 @@ import pytest
 rasterio = pytest.importorskip("rasterio")
 from rasterio.transform import from_origin  # noqa: E402
 
-from wildfire_learning.env import EnvConfig, WildfireVecEnv  # noqa: E402
 from wildfire_msgs_py.map_geometry import MapGeometry  # noqa: E402
 from wildfire_sim.demo_raster import landcover_codes, write_landcover  # noqa: E402
 from wildfire_sim.episode import preburn  # noqa: E402
 from wildfire_sim.fire import BatchedFire  # noqa: E402
 from wildfire_sim.fuel_map import FuelMap, FuelTable, read_fuel_map  # noqa: E402
 from wildfire_sim.landscape import Landscape  # noqa: E402
+from wildfire_world.env import EnvConfig, WildfireVecEnv  # noqa: E402
 
 WILDFIRE = [sys.executable, "-m", "wildfire_cli"]
 

@@ -16,9 +16,9 @@ from pathlib import Path
 import pytest
 
 from wildfire_belief.radio import CommModel
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow, pytest.mark.timeout(420)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")

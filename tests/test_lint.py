@@ -105,14 +105,15 @@ def test_no_import_cycles() -> None:
 
 
 #: The packages under src/, each building only on those before it: the interface, the
-#: runtime, the model (fire, belief, aircraft), training, the test tools, the launch of a
-#: system, the benchmarks and the command line.
+#: runtime, the model (fire, belief, aircraft), the batched world, training, the test
+#: tools, the launch of a system, the benchmarks and the command line.
 PACKAGE_ORDER = (
     "wildfire_msgs_py",
     "wildfire_ros",
     "wildfire_sim",
     "wildfire_belief",
     "wildfire_agent",
+    "wildfire_world",
     "wildfire_learning",
     "wildfire_testbed",
     "wildfire_bringup",

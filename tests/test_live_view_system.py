@@ -26,9 +26,9 @@ import pytest
 from websockets.exceptions import ConnectionClosed
 
 from foxglove_client import FoxgloveClient, Received
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig
 
 pytestmark = [pytest.mark.dds, pytest.mark.timeout(240)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")

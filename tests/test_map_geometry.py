@@ -11,11 +11,11 @@ import pytest
 
 from wildfire_belief import visits
 from wildfire_belief.visits import visit_windows, visited_cells
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_msgs_py.map_geometry import PAPER_MAP, MapGeometry, MapGeometryError
 from wildfire_sim.fire import BatchedFire
 from wildfire_sim.seeding import cell_uniforms
 from wildfire_sim.shapes import seed_centre_m, shape_masks
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 WILDFIRE = Path(sys.executable).with_name("wildfire")
 
@@ -165,7 +165,7 @@ def test_parallel_api_at_field_scale() -> None:
     100 x 100 coarse map there, as ``state_space`` declares."""
     from pettingzoo.test import parallel_api_test
 
-    from wildfire_learning.parallel_env import WildfireParallelEnv
+    from wildfire_world.parallel_env import WildfireParallelEnv
 
     config = EnvConfig(
         n_aircraft=16, observation="belief", reward="belief", geometry=MapGeometry(500, 500),

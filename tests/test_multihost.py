@@ -306,9 +306,9 @@ def test_a_failure_inside_the_hosts_removes_them(tmp_path: Path) -> None:
 @pytest.mark.timeout(RUN_TIMEOUT_S + 60)
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_four_hosts_equal_eval_and_stay_off_the_network(backend: str, tmp_path: Path) -> None:
-    from wildfire_learning.env import EnvConfig
     from wildfire_learning.evaluate import evaluate
     from wildfire_learning.vec_policies import make_vec_policy
+    from wildfire_world.env import EnvConfig
 
     require_backend(backend, own_pass_only=True)
     # Two aircraft on four hosts: every agent alone on its host (and one process less to start).

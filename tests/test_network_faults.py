@@ -189,9 +189,9 @@ def test_realtime_with_netem_and_a_partition_recovers(backend: str, tmp_path: Pa
 @pytest.mark.timeout(RUN_TIMEOUT_S + 30)
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_lockstep_partition_resumes_and_equals_eval(backend: str, tmp_path: Path) -> None:
-    from wildfire_learning.env import EnvConfig
     from wildfire_learning.evaluate import evaluate
     from wildfire_learning.vec_policies import make_vec_policy
+    from wildfire_world.env import EnvConfig
 
     require_backend(backend, own_pass_only=True)
     # The cut starts half a second after the first tick: a lockstep run flies as fast as the

@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from wildfire_learning.env import EnvConfig, WildfireVecEnv, draw_scenario
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig, WildfireVecEnv, draw_scenario
 
 pytestmark = [pytest.mark.dds, pytest.mark.timeout(120)]
 

@@ -15,11 +15,9 @@ import pytest
 from wildfire_agent import dynamics
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policy_names import make_policy
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
 from wildfire_learning.oracle import (
     OracleConfig,
-    OracleVecPolicy,
     coverage_score,
     fly,
     known_future,
@@ -27,9 +25,11 @@ from wildfire_learning.oracle import (
 )
 from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES
 from wildfire_learning.oracle_kernels import NEVER
+from wildfire_learning.oracle_policy import OracleVecPolicy
 from wildfire_learning.vec_policies import make_vec_policy
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
 from wildfire_sim.grid import PAPER_MAP
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 WILDFIRE = str(Path(sys.executable).with_name("wildfire"))
 SEED = TEST_SEED_BASE + 7

@@ -13,10 +13,10 @@ from typing import Any
 import pytest
 import torch
 
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import EvaluationSummary, evaluate
 from wildfire_learning.parallel import EvalJob, evaluate_jobs, split_seeds
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig
 
 WILDFIRE = [str(Path(sys.executable).with_name("wildfire"))]
 TIMINGS = {"seconds_per_decision", "wall_time_s", "planning_s"}

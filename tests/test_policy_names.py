@@ -18,8 +18,8 @@ from wildfire_agent.policy_names import (
     make_policy,
     resolve_policy_path,
 )
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 EVERY_NAME = (*BUILTIN_POLICIES, *SHIPPED_POLICIES)
 

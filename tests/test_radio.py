@@ -19,8 +19,8 @@ from wildfire_belief.radio import (
     link_draws,
 )
 from wildfire_belief.replicas import BeliefReplicas, visit_key
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_sim.grid import MapGeometry
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 
 @pytest.mark.parametrize(

@@ -16,12 +16,12 @@ import pytest
 
 from wildfire_agent.policy_names import ORACLE_POLICY, SHIPPED_POLICIES
 from wildfire_learning import results_report
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES
 from wildfire_learning.results_report import Scenario, results_markdown, table_cells
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig
 
 WILDFIRE = [str(Path(sys.executable).with_name("wildfire"))]
 QUICK = ("--episodes", "2", "--duration", "5")

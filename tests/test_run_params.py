@@ -16,11 +16,11 @@ from wildfire_bringup.launcher import node_commands
 from wildfire_bringup.params_file import compare, node_name, passed_values, run_nodes
 from wildfire_cli import build_parser
 from wildfire_cli.common import UserError
-from wildfire_cli.run import build_spec
+from wildfire_cli.run import add_parser, build_spec
 from wildfire_cli.run_params import typed_options, with_params_file
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig
 
 WILDFIRE = [str(Path(sys.executable).parent / "wildfire")]
 SHIPPED = Path(__file__).parents[1] / "src/wildfire_bringup/config/wildfire.yaml"
@@ -37,7 +37,7 @@ def spec_of(*words: str) -> tuple[Any, dict[str, Any]]:
     argv = ["run", *words]
     args = build_parser("run").parse_args(argv)
     args.argv = argv
-    return with_params_file(args, build_spec)
+    return with_params_file(args, build_spec, add_parser)
 
 
 def passed(spec: Any, node: str) -> dict[str, Any]:
@@ -119,9 +119,12 @@ def test_conflicts_are_one_line(tmp_path: Path, text: str, words: list[str], exp
 
 
 def test_typed_options_are_what_was_typed() -> None:
-    assert typed_options(["run", "--shape", "circular", "--fast"]) == {"shape", "realtime"}
-    assert typed_options(["run", "--wind", "0,0", "--seed", "0"]) == {"wind", "seed"}
-    assert typed_options(["run"]) == set()
+    assert typed_options(["run", "--shape", "circular", "--fast"], add_parser) == {
+        "shape",
+        "realtime",
+    }
+    assert typed_options(["run", "--wind", "0,0", "--seed", "0"], add_parser) == {"wind", "seed"}
+    assert typed_options(["run"], add_parser) == set()
 
 
 def test_node_names_are_the_launchers() -> None:

@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig
 
 pytestmark = [pytest.mark.dds, pytest.mark.timeout(180)]
 WILDFIRE = [str(Path(sys.executable).parent / "wildfire")]

@@ -8,10 +8,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
-from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig, WildfireVecEnv
+from wildfire_world.errors import WorldError
 
 
 def fly(config: EnvConfig, seeds: list[int], decisions: int) -> tuple[WildfireVecEnv, int]:
@@ -88,7 +88,7 @@ def test_an_episode_under_noise_does_not_depend_on_its_batch() -> None:
     ],
 )
 def test_bad_sensing_settings_name_what_was_expected(changes: dict, names: str) -> None:
-    with pytest.raises(LearningError, match=names):
+    with pytest.raises(WorldError, match=names):
         EnvConfig(**changes).validate()
 
 
@@ -108,5 +108,5 @@ def test_the_wind_filter_feeds_its_estimate_to_the_belief_and_keeps_episodes_apa
     env, _ = fly(replace(config, observation="none", reward="belief"), [53], 60)
     assert env.sensing is not None
     assert np.any(env.sensing.belief.wind[0] != 0.0)  # two fire steps: the estimate is in
-    with pytest.raises(LearningError, match="wind filter"):
+    with pytest.raises(WorldError, match="wind filter"):
         EnvConfig(sensor="camera", pixel_error=0.0, wind_filter=True).validate()

@@ -399,8 +399,8 @@ def test_init_from_starts_at_the_policy_weights_and_says_so(tmp_path: Path) -> N
 
 def test_reward_option_trains_the_observation_network_on_the_team_reward() -> None:
     from wildfire_agent.approaches import belief_rewards
-    from wildfire_learning.env import WildfireVecEnv
     from wildfire_learning.train_config import TrainConfig
+    from wildfire_world.env import WildfireVecEnv
 
     own = TrainConfig(approach="obs").env_config()
     team = TrainConfig(approach="obs", reward="belief").env_config()

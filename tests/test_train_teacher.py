@@ -12,7 +12,6 @@ import torch
 from wildfire_agent.policy_names import BELIEF_PLANNER
 from wildfire_learning.architectures import build_q_network
 from wildfire_learning.dqn import td_update
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.errors import LearningError
 from wildfire_learning.experience import TrainingEpisodes, new_replay
 from wildfire_learning.oracle import OracleConfig, known_future, plan_episode
@@ -21,6 +20,7 @@ from wildfire_learning.teacher import OracleTeacher, PlannerTeacher, margin_loss
 from wildfire_learning.train_config import TrainConfig, TrainState
 from wildfire_learning.vec_policies import make_vec_policy
 from wildfire_sim.seeding import Stream, generator
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 
 def test_margin_loss_is_zero_once_the_label_leads_by_the_margin() -> None:

@@ -17,10 +17,10 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.policy_names import make_policy, policy_source
 from wildfire_agent.user_policy import is_user_policy, load_user_policy
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.results_report import policy_id
 from wildfire_learning.vec_policies import UserVecPolicy, make_vec_policy
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "examples" / "stalest_fire_policy.py"

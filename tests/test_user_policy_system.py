@@ -15,9 +15,9 @@ import pytest
 
 from test_nodes_lockstep import build_system, run_lockstep
 from test_user_policy import EXAMPLE, WEAVE
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import evaluate
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig
 
 pytestmark = [pytest.mark.dds, pytest.mark.timeout(180)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")

@@ -19,6 +19,7 @@ setup(
         "wildfire_ros",
         "wildfire_sim",
         "wildfire_agent",
+        "wildfire_world",
         "wildfire_learning",
         "wildfire_testbed",
         "wildfire_bringup",

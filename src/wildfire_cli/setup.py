@@ -22,6 +22,7 @@ setup(
         "wildfire_sim",
         "wildfire_belief",
         "wildfire_agent",
+        "wildfire_world",
         "wildfire_learning",
         "wildfire_testbed",
         "wildfire_bringup",

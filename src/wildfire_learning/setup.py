@@ -22,6 +22,7 @@ setup(
         "wildfire_sim",
         "wildfire_belief",
         "wildfire_agent",
+        "wildfire_world",
     ],
     zip_safe=True,
     maintainer="Wildfire surveillance maintainers",

@@ -5,7 +5,7 @@
 receding-horizon planner (``rh`` or ``rh-paper``), uniformly random actions, a TorchScript
 Q-network (``obs``, ``belief`` or a file) or a vector policy of your own (``MODULE:ATTR``,
 ``user_policy``). It calls the very functions
-``wildfire_learning.env`` and ``wildfire_learning.vec_policies`` call, with the same shapes
+``wildfire_world.env`` and ``wildfire_learning.vec_policies`` call, with the same shapes
 for the team arrays, so for the same inputs it picks the action the environment picks:
 
 * randomness (random actions, planner restarts) comes from ``generator(seed, AIRCRAFT, k)``;

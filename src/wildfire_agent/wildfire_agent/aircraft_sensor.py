@@ -5,7 +5,7 @@ Under noisy sensing (``--sensor camera``, or any ``--pixel-error``) each sensor 
 cameras, or the disc) reports its seen cells, each flipped with probability p from the
 aircraft's own stream (``Stream.SENSOR``, aircraft k): one window per sensor, in camera
 order. The environment draws the same numbers for aircraft k of the same seed
-(``wildfire_learning.team_sensing``), so the reports on the wire are the environment's.
+(``wildfire_world.team_sensing``), so the reports on the wire are the environment's.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ BeliefAggregator`: a visit sets a cell to its truth. Under noisy sensing (camera
 pixel error) every report is one noisy look, and the belief is a probability per cell
 (:class:`~wildfire_belief.filtered_belief.LogOddsBelief`). :class:`FilteredAggregator` is
 that belief for one episode, as the belief aggregator node and the run monitor keep it; the
-environment keeps a batch of the same belief (``wildfire_learning.team_sensing``) and calls
+environment keeps a batch of the same belief (``wildfire_world.team_sensing``) and calls
 the same rules in the same order, so a lockstep run equals ``wildfire eval`` bit for bit:
 
 1. the clock ticks, and at a fire-step tick the process term moves the belief one step

@@ -11,12 +11,12 @@ import numpy as np
 
 from wildfire_agent.receding_horizon import PlanProblem, plan
 from wildfire_bench.reference_fire import ReferenceFire
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_learning.vec_policies import RecedingHorizonVecPolicy
 from wildfire_sim.fire import BatchedFire
 from wildfire_sim.grid import MapGeometry
 from wildfire_sim.landscape import Landscape
 from wildfire_sim.shapes import shape_masks
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 
 def bench_fire(

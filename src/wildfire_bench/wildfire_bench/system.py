@@ -39,7 +39,7 @@ def _spec(
     sensor: str = "disc",
 ) -> Any:
     from wildfire_bringup.launcher import RunSpec
-    from wildfire_learning.env import EnvConfig, draw_scenario
+    from wildfire_world.env import EnvConfig, draw_scenario
 
     scenario = draw_scenario(seed, EnvConfig(n_aircraft=n, max_duration_s=duration))
     start = np.stack([scenario.start.x_m, scenario.start.y_m, scenario.start.heading_rad], axis=1)

@@ -34,6 +34,7 @@ def _project_user_errors() -> tuple[type[BaseException], ...]:
         ("wildfire_msgs_py.errors", "WildfireRosError"),
         ("wildfire_sim.errors", "FireConfigError"),
         ("wildfire_agent.errors", "AgentConfigError"),
+        ("wildfire_world.errors", "WorldError"),
         ("wildfire_learning.errors", "LearningError"),
         ("wildfire_belief.radio", "CommError"),
     ):

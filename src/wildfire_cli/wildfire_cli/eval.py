@@ -18,13 +18,13 @@ from wildfire_cli.common import (
 )
 from wildfire_cli.progress import progress_bar
 from wildfire_learning.device import resolve_device
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, evaluate
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.results_report import Scenario
 from wildfire_learning.vec_policies import check_world, make_vec_policy
 from wildfire_msgs_py.map_geometry import PAPER_MAP, MapGeometry
 from wildfire_sim.shapes import Shape
+from wildfire_world.env import EnvConfig
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -27,7 +27,6 @@ from wildfire_cli.common import (
 )
 from wildfire_cli.progress import progress_bar
 from wildfire_learning.comm_sweep import plot_sweep, sweep_markdown
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.evaluate import TEST_SEED_BASE, EvaluationSummary, evaluate
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.plots import (
@@ -51,6 +50,7 @@ from wildfire_learning.results_report import (
     table_cells,
 )
 from wildfire_learning.vec_policies import check_world, make_vec_policy
+from wildfire_world.env import EnvConfig
 
 DEFAULT_POLICIES = ("obs", "belief", "rh", "rh-paper", "random")
 NOISY_DEFAULT_POLICIES = ("belief", "belief-camera", "rh", "rh-belief", "rh-paper", "random")

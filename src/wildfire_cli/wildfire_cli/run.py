@@ -230,8 +230,8 @@ def check_faults(args: argparse.Namespace, hosts: int) -> tuple[Any, tuple[Any, 
 def build_spec(args: argparse.Namespace) -> Any:
     from wildfire_bringup.launcher import RunSpec
     from wildfire_cli.run_params import check_params_file
-    from wildfire_learning.env import EnvConfig, draw_scenario
     from wildfire_sim.shapes import Shape
+    from wildfire_world.env import EnvConfig, draw_scenario
 
     hosts = check_hosts(args.hosts, args.aircraft)
     netem, partitions = check_faults(args, hosts)
@@ -406,7 +406,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--png {args.png}: its directory is not writable")
     from wildfire_cli.run_params import with_params_file
 
-    spec, from_file = with_params_file(args, build_spec)
+    spec, from_file = with_params_file(args, build_spec, add_parser)
     launcher = Launcher(spec)
     # `kill`/`timeout` stop the run like Ctrl-C: children stopped, recording finalized.
     interrupt_on_stop_signals()

@@ -25,6 +25,9 @@ if TYPE_CHECKING:
     from collections.abc import Callable, Sequence
     from pathlib import Path
 
+    AddParser = Callable[["argparse._SubParsersAction[argparse.ArgumentParser]"], Any]
+    """Adds ``wildfire run``'s parser to a command's sub-parsers."""
+
 
 @dataclass(frozen=True)
 class Option:
@@ -86,10 +89,8 @@ class _RaisingParser(ArgumentParser):
         raise UserError(message)
 
 
-def _run_parser(suppress: Sequence[str] = ()) -> argparse.ArgumentParser:
+def _run_parser(add_parser: AddParser, suppress: Sequence[str] = ()) -> argparse.ArgumentParser:
     """A parser of ``wildfire run`` alone; the options ``suppress`` names default to a marker."""
-    from wildfire_cli.run import add_parser
-
     top = _RaisingParser(prog="wildfire")
     # The sub-parsers are of the top's class: they raise too.
     subparsers = cast(
@@ -120,21 +121,21 @@ def check_params_file(path: Path) -> Path:
     return path.resolve()
 
 
-def typed_options(words: Sequence[str] | None) -> set[str]:
+def typed_options(words: Sequence[str] | None, add_parser: AddParser) -> set[str]:
     """The options (by attribute) that the user typed on ``wildfire run``'s command line."""
     if words is None:
         return set()
     dests = [option.dest for option in OPTIONS.values()] + ["wind"]
-    parsed = _run_parser(dests).parse_args(list(words))
+    parsed = _run_parser(add_parser, dests).parse_args(list(words))
     return {d for d in dests if getattr(parsed, d) is not _UNTYPED}
 
 
-def option_value(path: Path, node: str, name: str, value: Any) -> Any:
+def option_value(path: Path, node: str, name: str, value: Any, add_parser: AddParser) -> Any:
     """The file's ``value`` of parameter ``name`` as its option's value, checked as typed."""
     option = OPTIONS[name]
     where = f"--params-file {path}: {node} {name}"
     try:
-        parsed = _run_parser().parse_args(["run", *option.words(value)])
+        parsed = _run_parser(add_parser).parse_args(["run", *option.words(value)])
         if name == "shape":
             from wildfire_sim.shapes import Shape
 
@@ -144,7 +145,9 @@ def option_value(path: Path, node: str, name: str, value: Any) -> Any:
     return getattr(parsed, option.dest)
 
 
-def adopt_options(args: argparse.Namespace, path: Path, typed: set[str]) -> dict[str, Any]:
+def adopt_options(
+    args: argparse.Namespace, path: Path, typed: set[str], add_parser: AddParser
+) -> dict[str, Any]:
     """Give ``args`` the file's values of the options it stands for; returns those it took."""
     from wildfire_bringup.params_file import file_values, node_name, run_nodes
 
@@ -167,7 +170,7 @@ def adopt_options(args: argparse.Namespace, path: Path, typed: set[str]) -> dict
                 seen.setdefault(name, (node_name(node), value))
         for name, (node, value) in seen.items():
             option = OPTIONS[name]
-            wanted = option_value(path, node, name, value)
+            wanted = option_value(path, node, name, value, add_parser)
             current = getattr(args, option.dest)
             if wanted == current:
                 continue
@@ -212,18 +215,21 @@ def adopt_poses(
 
 
 def with_params_file(
-    args: argparse.Namespace, build: Callable[[argparse.Namespace], Any]
+    args: argparse.Namespace, build: Callable[[argparse.Namespace], Any], add_parser: AddParser
 ) -> tuple[Any, dict[str, Any]]:
     """The run's spec built by ``build`` from ``args`` under ``args.params_file``, and the
-    values it took from the file (by parameter; wind and poses by node and parameter)."""
+    values it took from the file (by parameter; wind and poses by node and parameter).
+
+    ``add_parser`` adds ``wildfire run``'s parser: the file's values are checked as if typed.
+    It is passed in, so that this module needs nothing from ``wildfire_cli.run``."""
     from wildfire_bringup.launcher import node_commands
     from wildfire_bringup.params_file import compare
 
     if args.params_file is None:
         return build(args), {}
     path = check_params_file(args.params_file)
-    typed = typed_options(getattr(args, "argv", None))
-    adopted = adopt_options(args, path, typed)
+    typed = typed_options(getattr(args, "argv", None), add_parser)
+    adopted = adopt_options(args, path, typed, add_parser)
     spec = build(args)
     spec, poses = adopt_poses(spec, compare(path, node_commands(spec)), typed, path)
     for entry in compare(path, node_commands(spec)):

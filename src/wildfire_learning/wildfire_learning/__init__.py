@@ -1,1 +1,1 @@
-"""Batched multi-agent wildfire environment, DQN training, bag replay and evaluation."""
+"""Training (DQN, bag replay), vector policies, evaluation, the clairvoyant bound and the report."""

@@ -3,7 +3,7 @@
 The bag holds what the nodes publish (:mod:`wildfire_msgs_py.contract`); the transitions are
 rebuilt by re-running the very functions the environment runs (sensor, belief visits, ego
 image, rewards, pairwise states) on the recorded exact states, fire maps and actions, so a
-lockstep bag gives the transitions :class:`~wildfire_learning.env.WildfireVecEnv` gives for
+lockstep bag gives the transitions :class:`~wildfire_world.env.WildfireVecEnv` gives for
 the same seed (tested).
 
 Topics used (one episode per bag):
@@ -69,7 +69,6 @@ from wildfire_belief.belief import SharedBelief
 from wildfire_belief.sensors import CAMERA_WINDOW, NUM_CAMERAS
 from wildfire_belief.visits import visit_windows, visited_cells
 from wildfire_learning.bag_sensing import NoisySensing, Sensing, recorded_sensing
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
 from wildfire_msgs_py import belief_codec, codecs, contract
@@ -83,6 +82,7 @@ from wildfire_sim.episode import (
     fire_at_border,
 )
 from wildfire_sim.grid import geometry_of
+from wildfire_world.env import EnvConfig
 
 
 class Recording(NamedTuple):

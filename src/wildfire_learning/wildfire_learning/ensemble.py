@@ -24,7 +24,6 @@ from typing import Any
 import torch
 from torch import nn
 
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import EvaluationSummary
 from wildfire_learning.export import _save_with_card
@@ -32,6 +31,7 @@ from wildfire_learning.model_card import EVALUATION_PROTOCOL, policy_sha256
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.summary_stats import standard_error
 from wildfire_learning.train_config import EVAL_SEED_BASE
+from wildfire_world.env import EnvConfig
 
 MEMBER_CARD_KEYS = (
     "arch",

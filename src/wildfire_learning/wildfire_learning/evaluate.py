@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 
 from wildfire_belief.belief import belief_iou, mean_age_at_burning, score_ceiling
-from wildfire_learning.env import EnvConfig, StepResult, VecPolicy, WildfireVecEnv
 from wildfire_learning.summary_stats import standard_error
+from wildfire_world.env import EnvConfig, StepResult, VecPolicy, WildfireVecEnv
 
 VALIDATION_SEED_BASE = 1_000_000
 """First validation seed (training seeds stay below)."""

@@ -19,7 +19,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wildfire_learning.env import WildfireVecEnv
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import VALIDATION_SEED_BASE
 from wildfire_learning.exploration import PersistentExploration
@@ -27,6 +26,7 @@ from wildfire_learning.nstep import NStepAccumulator
 from wildfire_learning.replay import NO_LABEL, ImageCodec, ReplayBuffer
 from wildfire_learning.teacher import make_teacher
 from wildfire_learning.train_config import TrainConfig, TrainState, replay_shapes
+from wildfire_world.env import WildfireVecEnv
 
 if TYPE_CHECKING:  # the bag reader (rosbags) loads only for runs that read bags
     from wildfire_learning.bag_transitions import RebuiltSequence

@@ -23,11 +23,11 @@ flight it commits is flown and scored exactly. Flights use the project's dynamic
 for float (:func:`fly`, tested against ``wildfire_agent.dynamics.step``), so the plan the
 environment flies scores exactly what :func:`plan_episode` predicts.
 
-The plan flown (:class:`OracleVecPolicy`) is the best team flight found: the search's own,
-or an incumbent's, the flight of a shipped policy on the same episode (:func:`flight_of`)
-if one scores more, then refined with the known future (:func:`refine`: whole-episode
-iterated best response, each aircraft re-planned in receding horizon against the others'
-whole flights, kept only if the team scores more).
+The plan flown (``oracle_policy.OracleVecPolicy``) is the best team flight found: the
+search's own, or an incumbent's, the flight of a shipped policy on the same episode
+(``oracle_incumbents.flight_of``) if one scores more, then refined with the known future
+(:func:`refine`: whole-episode iterated best response, each aircraft re-planned in receding
+horizon against the others' whole flights, kept only if the team scores more).
 
 It is a bound to measure against, not a deployable controller: it reads the future. It
 runs in ``wildfire eval`` and ``wildfire report`` only; an agent node refuses the name.
@@ -40,18 +40,17 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
 from wildfire_agent.dynamics import MAX_BANK_STEPS, AircraftState
-from wildfire_learning.env import EnvConfig, VecPolicy, WildfireVecEnv, draw_scenario
-from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES, flight_of
+from wildfire_learning.oracle_incumbents import INCUMBENT_POLICIES
 from wildfire_learning.oracle_kernels import NEVER, RATES, cover, fly_path, search
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, FireEpisode
 from wildfire_sim.seeding import Stream, generator
+from wildfire_world.env import EnvConfig, draw_scenario
 
 
 @dataclass(frozen=True)
@@ -335,7 +334,7 @@ def _receding_horizon(
     return plan[:, :length].copy()
 
 
-def _as_plan(future: KnownFuture, actions: np.ndarray) -> OraclePlan:
+def as_plan(future: KnownFuture, actions: np.ndarray) -> OraclePlan:
     """The team flight ``actions`` (N, L), flown and scored exactly."""
     actions = np.ascontiguousarray(actions, np.int64)
     xs, ys = fly(future.start, actions)
@@ -368,7 +367,7 @@ def plan_episode(future: KnownFuture, config: OracleConfig | None = None) -> Ora
     plan = first_plan(future, config)
     covered = np.zeros(future.start_step.size, np.bool_)
     actions = _receding_horizon(future, config, plan, list(range(n)), covered, config.horizon)
-    return _as_plan(future, actions)
+    return as_plan(future, actions)
 
 
 def best_response(
@@ -388,7 +387,7 @@ def best_response(
     actions = _receding_horizon(future, config, plan, [k], covered, horizon, keep_tail=True)
     others = np.arange(n) != k
     actions[others] = team.actions[others]
-    return _as_plan(future, actions)
+    return as_plan(future, actions)
 
 
 def refine(
@@ -419,83 +418,11 @@ def refine(
     return best
 
 
-class OracleVecPolicy:
-    """The oracle flying every aircraft of every episode of a vector environment: each
-    episode is planned whole when it starts (its future is known), then replayed.
-
-    The plan is the best of the search's own flight and the flights of the incumbent
-    policies (``config.incumbents``, built by ``incumbent``: ``vec_policies.make_vec_policy``),
-    refined by whole-episode best response (:func:`refine`)."""
-
-    observation = "none"
-
-    def __init__(
-        self,
-        config: OracleConfig | None = None,
-        incumbent: Callable[[str], VecPolicy] | None = None,
-    ) -> None:
-        self.config = config or OracleConfig()
-        if self.config.incumbents and incumbent is None:
-            raise ValueError("OracleVecPolicy: incumbents named but no policy factory given")
-        self.incumbent = incumbent
-        self._incumbent_policies: dict[str, VecPolicy] = {}
-        self.plans: dict[int, OraclePlan] = {}
-        self.plan_seconds: dict[int, float] = {}
-        """Wall time of each episode's planning (in ``reset``, which ``evaluate`` counts as
-        the policy's ``planning_s``), by seed."""
-        self.candidates: dict[int, dict[str, int]] = {}
-        """Per seed, the score of each flight considered: the search's own (``search``), each
-        incumbent's, and the refined plan (``refined``)."""
-
-    def plan(self, seed: int, config: EnvConfig) -> OraclePlan:
-        """The oracle's flight of episode ``seed`` (see the class docstring)."""
-        tic = time.perf_counter()
-        future = known_future(seed, config)
-        found = {"search": plan_episode(future, self.config)}
-        for name in self.config.incumbents:
-            if name not in self._incumbent_policies:
-                assert self.incumbent is not None
-                self._incumbent_policies[name] = self.incumbent(name)
-            found[name] = _as_plan(future, flight_of(self._incumbent_policies[name], config, seed))
-        scores = {name: plan.score for name, plan in found.items()}
-        # Refine every flight found, the best first (the budget may not reach the last).
-        deadline = tic + self.config.time_budget_s
-        best = max(found.values(), key=lambda plan: plan.score)
-        for plan in sorted(found.values(), key=lambda plan: -plan.score):
-            refined = refine(future, plan, self.config, deadline)
-            if refined.score > best.score:
-                best = refined
-        scores["refined"] = best.score
-        self.candidates[seed] = scores
-        self.plan_seconds[seed] = time.perf_counter() - tic
-        return best
-
-    def _plan_of(self, env: WildfireVecEnv, e: int) -> OraclePlan:
-        """The plan of environment ``e``'s episode, planned the first time its seed is seen."""
-        seed = int(env.seeds[e])
-        if seed not in self.plans:
-            self.plans[seed] = self.plan(seed, env.config)
-        return self.plans[seed]
-
-    def reset(self, env: WildfireVecEnv) -> None:
-        for e in np.flatnonzero(~env.done).tolist():
-            self._plan_of(env, e)
-
-    def act(self, env: WildfireVecEnv, observations: dict[str, np.ndarray]) -> np.ndarray:
-        actions = np.zeros((env.num_envs, env.config.n_aircraft), np.int64)
-        for e in np.flatnonzero(~env.done).tolist():
-            plan = self._plan_of(env, e)
-            decision = int(env.decisions[e])
-            if decision < plan.actions.shape[1]:
-                actions[e] = plan.actions[:, decision]
-        return actions
-
-
 __all__ = [
     "KnownFuture",
     "OracleConfig",
     "OraclePlan",
-    "OracleVecPolicy",
+    "as_plan",
     "coverage_score",
     "first_plan",
     "fly",

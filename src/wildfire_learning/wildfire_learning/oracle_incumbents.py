@@ -16,7 +16,7 @@ from wildfire_agent.policy_names import (
     OBS_CAMERA_POLICY,
     SHIPPED_POLICIES,
 )
-from wildfire_learning.env import EnvConfig, VecPolicy, WildfireVecEnv
+from wildfire_world.env import EnvConfig, VecPolicy, WildfireVecEnv
 
 INCUMBENT_POLICIES = tuple(
     str(name)

@@ -46,10 +46,10 @@ from wildfire_agent.policy_names import (
     has_network_file,
     resolve_policy_path,
 )
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import EvaluationSummary, evaluate
 from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_world.env import EnvConfig
 
 RAY_CONNECT_TIMEOUT_S = 10.0
 """How long to wait for a Ray address to answer (TCP, then Ray's own handshake) before giving

@@ -15,12 +15,12 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_msgs_py.map_geometry import MapGeometry, MapGeometryError
 from wildfire_sim.fuel_map import FuelMap
 from wildfire_sim.landscape import Landscape
 from wildfire_sim.shapes import Shape
+from wildfire_world.env import EnvConfig
 
 FIELD_KINDS = ("field", "landcover")
 """Scenario kinds on a map of their own."""

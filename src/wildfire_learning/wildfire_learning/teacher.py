@@ -34,7 +34,6 @@ import torch
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.policy_names import ORACLE_POLICY, PLANNER_POLICIES, planner_config
 from wildfire_agent.receding_horizon import plan
-from wildfire_learning.env import WildfireVecEnv
 from wildfire_learning.oracle import (
     KnownFuture,
     OracleConfig,
@@ -46,6 +45,7 @@ from wildfire_learning.oracle import (
 from wildfire_learning.oracle_kernels import NEVER
 from wildfire_learning.vec_policies import flatten_aircraft, map_index, others_of
 from wildfire_sim.seeding import Stream, generator
+from wildfire_world.env import WildfireVecEnv
 
 
 class PlannerTeacher:

@@ -28,10 +28,10 @@ from wildfire_agent.pairwise import STATE_SIZE, peer_count
 from wildfire_agent.policy_names import ORACLE_POLICY, PLANNER_POLICIES
 from wildfire_belief.radio import CommError, CommModel
 from wildfire_learning.architectures import ARCHITECTURES, build_q_network, network_name
-from wildfire_learning.env import EnvConfig
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import VALIDATION_SEED_BASE
 from wildfire_sim.episode import EPISODE_DEFAULTS
+from wildfire_world.env import EnvConfig
 
 EVAL_SEED_BASE = VALIDATION_SEED_BASE
 """Evaluation seeds during training start here; training seeds stay below."""

@@ -13,13 +13,13 @@ from typing import NamedTuple
 import numpy as np
 from torch import nn
 
-from wildfire_learning.env import StepResult
 from wildfire_learning.evaluate import EvaluationSummary, evaluate
 from wildfire_learning.export import export_policy
 from wildfire_learning.model_card import policy_card
 from wildfire_learning.train_config import RunOptions, TrainConfig, TrainState
 from wildfire_learning.train_status import Session
 from wildfire_learning.vec_policies import GreedyVecPolicy
+from wildfire_world.env import StepResult
 
 RETURN_TAIL_WEIGHT = 0.01
 """A decision of an episode cut by the time limit counts in the value check only if the

@@ -30,9 +30,9 @@ from wildfire_agent.policy_names import (
 )
 from wildfire_agent.receding_horizon import RecedingHorizonConfig, RecedingHorizonPolicy
 from wildfire_agent.rewards import FireFieldMaps
-from wildfire_learning.env import EnvConfig, VecPolicy, WildfireVecEnv
 from wildfire_learning.errors import LearningError
-from wildfire_learning.oracle import OracleVecPolicy
+from wildfire_learning.oracle_policy import OracleVecPolicy
+from wildfire_world.env import EnvConfig, VecPolicy, WildfireVecEnv
 
 
 def flatten_aircraft(state: AircraftState) -> AircraftState:

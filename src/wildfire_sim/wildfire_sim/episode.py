@@ -1,7 +1,7 @@
 """The episode rule book, and one fire episode as the fire-simulator node runs it (no ROS).
 
 Every episode — :class:`FireEpisode` here (the fire-simulator node), the training
-environment ``wildfire_learning.env.WildfireVecEnv`` and the transitions rebuilt from bags
+environment ``wildfire_world.env.WildfireVecEnv`` and the transitions rebuilt from bags
 (``wildfire_learning.bag_transitions``) — follows these rules, written only here:
 
 * the fire starts as its landscape says (:meth:`wildfire_sim.landscape.Landscape.start`) and

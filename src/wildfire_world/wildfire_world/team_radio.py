@@ -1,6 +1,6 @@
 """The radio links of a batch of episodes: messages in flight, replicas, heard poses, catch-up.
 
-:class:`TeamRadio` is what :class:`~wildfire_learning.env.WildfireVecEnv` keeps under a
+:class:`TeamRadio` is what :class:`~wildfire_world.env.WildfireVecEnv` keeps under a
 limited radio model (docs/model.md, Radio links), for every aircraft of every episode at
 once. It calls the functions an agent's :class:`~wildfire_agent.aircraft_radio.AircraftRadio`
 calls, in the same order within a tick, so a lockstep run decides exactly as the

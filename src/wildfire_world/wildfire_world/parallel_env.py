@@ -1,6 +1,6 @@
 """One wildfire episode as a PettingZoo ``ParallelEnv`` (agents ``uav0``, ``uav1``, ...).
 
-A thin wrapper over :class:`~wildfire_learning.env.WildfireVecEnv` with one environment:
+A thin wrapper over :class:`~wildfire_world.env.WildfireVecEnv` with one environment:
 see that module for the spaces, rewards, starting state and episode end. Each agent's
 observation is a dict ``{"image": ..., "state": ...}``; ``state()`` is the global view:
 true burning, believed burning and belief age / 255, at most :data:`STATE_SIDE` pixels a side
@@ -18,8 +18,8 @@ from pettingzoo import ParallelEnv
 
 from wildfire_agent.approaches import APPROACHES, image_shape
 from wildfire_agent.pairwise import STATE_SIZE, peer_count
-from wildfire_learning.env import EnvConfig, WildfireVecEnv
 from wildfire_sim.grid import MapGeometry
+from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 STATE_SIDE = 100
 """Most pixels along a side of ``state()``: the paper's map cell for cell, a field map in

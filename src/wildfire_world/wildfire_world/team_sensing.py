@@ -1,7 +1,7 @@
 """Noisy sensing of a batch of episodes: the sensors' reports, the filtered team belief, the
 score under noise (docs/model.md, Realistic sensing).
 
-:class:`TeamSensing` is what :class:`~wildfire_learning.env.WildfireVecEnv` keeps when the
+:class:`TeamSensing` is what :class:`~wildfire_world.env.WildfireVecEnv` keeps when the
 sensor is not the paper's perfect disc (``--sensor camera``, or any ``--pixel-error``). Each
 decision:
 

@@ -2,7 +2,7 @@
 
 :class:`WildfireVecEnv` steps ``num_envs`` independent episodes of ``n_aircraft`` aircraft at
 once (a leading environment dimension on every array, done masks instead of branches), in
-the style of Gymnasium's vector environments; :mod:`wildfire_learning.parallel_env` wraps one
+the style of Gymnasium's vector environments; :mod:`wildfire_world.parallel_env` wraps one
 episode as a PettingZoo ``ParallelEnv``. It composes the pure modules the ROS nodes use —
 fire (``wildfire_sim``), dynamics, sensor, rewards (``wildfire_agent``), belief
 (``wildfire_belief``) — so the distributed system computes exactly what this computes.
@@ -49,193 +49,44 @@ Radio links (``comm``)
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import NamedTuple, Protocol
 
 import numpy as np
 
 from wildfire_agent import dynamics, pairwise
 from wildfire_agent.approaches import (
-    APPROACHES,
     Approach,
     belief_images,
     belief_rewards,
-    sees_cameras,
     sensor_images,
 )
 from wildfire_agent.camera_view import camera_images, camera_rewards
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.rewards import (
     FireFieldMaps,
-    ObservationRewardWeights,
     distance_to_fire,
     fire_field_maps,
     observation_rewards,
 )
-from wildfire_belief import sensors
 from wildfire_belief.belief import SharedBelief
-from wildfire_belief.radio import IDEAL, CommModel
 from wildfire_belief.visits import visit_windows, visited_cells, window_values
-from wildfire_learning.errors import LearningError
-from wildfire_learning.team_radio import TeamRadio
-from wildfire_learning.team_sensing import TeamSensing
 from wildfire_sim.episode import (
     DECISIONS_PER_FIRE_STEP,
-    EPISODE_DEFAULTS,
-    decisions_in,
     fire_at_border,
     preburn,
 )
-from wildfire_sim.fire import BatchedFire, FireParams
-from wildfire_sim.grid import PAPER_MAP, MapGeometry
-from wildfire_sim.landscape import Landscape
-from wildfire_sim.seeding import Stream, generator
-from wildfire_sim.shapes import Shape, ShapeMasks, start_centres_m
-
-OBSERVATION_KINDS = (*APPROACHES, "none")
-REWARD_KINDS = APPROACHES
-
-
-@dataclass(frozen=True)
-class EnvConfig:
-    """Scenario, observation and reward settings of the environment."""
-
-    n_aircraft: int = 2
-    """Aircraft per episode."""
-    geometry: MapGeometry = PAPER_MAP
-    """The map: rows and columns of 10 m cells (``--map-size``; the paper's 100 x 100)."""
-    landscape: Landscape | None = None
-    """Fuel raster and starting fire on ``geometry`` (``--fuel-map``, ``--ignition-map``,
-    ``--ignitions``); None: the paper's homogeneous fuel and the named shapes."""
-    observation: str = "obs"
-    """``obs`` (sensor image), ``belief`` (ego belief image) or ``none``."""
-    reward: str = "obs"
-    """``obs`` (observation-based reward) or ``belief`` (team reward - proximity)."""
-    shapes: tuple[str, ...] = (EPISODE_DEFAULTS.shape,)
-    """Fire shapes drawn uniformly per episode."""
-    wind: tuple[float, float] | None = None
-    """Fixed wind (wx, wy); None draws it per episode."""
-    max_wind: float = EPISODE_DEFAULTS.max_wind
-    """Bound of each random wind component."""
-    preburn_steps: int = EPISODE_DEFAULTS.preburn_steps
-    """Fire steps before the aircraft start."""
-    preburn_area_m2: float = 0.0
-    """With > 0, pre-burn until the fire has touched this area instead (``--preburn-area``)."""
-    max_duration_s: float = EPISODE_DEFAULTS.duration_s
-    """Truncation time of the flight."""
-    border_cells: int = EPISODE_DEFAULTS.border_cells
-    """The episode ends when fire comes this close to the map edge."""
-    start_range_m: tuple[float, float] = (150.0, 300.0)
-    """Start distance from the seed centre."""
-    obs_weights: ObservationRewardWeights = field(default_factory=ObservationRewardWeights)
-    """Weights of the observation-based reward."""
-    belief_proximity_weight: float = 0.5
-    """lambda_p of the belief reward's proximity penalty."""
-    fire: FireParams = field(default_factory=FireParams)
-    """Fire-model parameters."""
-    comm: CommModel = IDEAL
-    """Radio links between the aircraft (``ideal``: one shared belief)."""
-    sensor: str = "disc"
-    """``disc`` (the paper's: every cell within 100 m) or ``camera`` (four cameras)."""
-    pixel_error: float = 0.0
-    """Probability that a report flips (``--pixel-error``; 0.1 is the camera's default)."""
-    wind_filter: bool = False
-    """Under noisy sensing, estimate the wind with a particle filter for the belief's
-    process term (``--wind-filter``)."""
-
-    @property
-    def noisy(self) -> bool:
-        """Sensing other than the paper's perfect disc: a filtered (probability) belief."""
-        return sensors.noisy(self.sensor, self.pixel_error)
-
-    def validate(self) -> EnvConfig:
-        """Return self, or raise :class:`LearningError` naming the bad field."""
-        if self.n_aircraft < 1:
-            raise LearningError(f"aircraft: expected >= 1, got {self.n_aircraft}")
-        if self.observation not in OBSERVATION_KINDS:
-            raise LearningError(
-                f"observation: expected one of {OBSERVATION_KINDS}, got {self.observation!r}"
-            )
-        if self.reward not in REWARD_KINDS:
-            raise LearningError(f"reward: expected one of {REWARD_KINDS}, got {self.reward!r}")
-        if not self.shapes:
-            raise LearningError("shapes: expected at least one fire shape")
-        for name in self.shapes:
-            Shape.parse(name)
-        if not 0.0 <= self.max_wind <= 1.0:
-            raise LearningError(f"max_wind: expected a number in [0, 1], got {self.max_wind}")
-        if self.max_duration_s <= 0:
-            raise LearningError(f"duration: expected > 0 s, got {self.max_duration_s}")
-        if self.preburn_steps < 0:
-            raise LearningError(f"preburn_steps: expected >= 0, got {self.preburn_steps}")
-        if not self.preburn_area_m2 >= 0:
-            raise LearningError(f"preburn area: expected >= 0 m2, got {self.preburn_area_m2}")
-        if self.preburn_area_m2 > 0 and self.noisy:
-            # The filtered belief predicts the pre-burn from the episode's rules; a pre-burn
-            # to an area lasts as long as the draws make it.
-            raise LearningError(
-                "--preburn-area: not with noisy sensing yet (its belief predicts a fixed pre-burn)"
-            )
-        if self.landscape is not None and self.landscape.geometry != self.geometry:
-            raise LearningError(
-                f"landscape: {self.landscape.geometry.text} cells on a {self.geometry.text} map"
-            )
-        if self.sensor not in sensors.SENSORS:
-            raise LearningError(f"sensor: expected one of {sensors.SENSORS}, got {self.sensor!r}")
-        if not 0.0 <= self.pixel_error < 0.5:
-            raise LearningError(
-                f"pixel error: expected a number in [0, 0.5), got {self.pixel_error}"
-            )
-        if self.wind_filter and not self.pixel_error > 0.0:
-            raise LearningError("wind filter: expected noisy reports (a pixel error > 0)")
-        if self.noisy and not self.comm.ideal:
-            raise LearningError("sensor: noisy sensing under limited radio links is not built yet")
-        if self.noisy and self.sensor != "camera" and self.observation == Approach.OBS:
-            raise LearningError(
-                "sensor: the observation approach sees the true fire under the disc; with a "
-                "pixel error it needs --sensor camera (its own camera images)"
-            )
-        self.fire.validate()
-        return self
-
-    @property
-    def ground(self) -> Landscape:
-        """The landscape the fires start on (the paper's fuel on ``geometry`` by default)."""
-        return self.landscape or Landscape(self.geometry)
-
-    @property
-    def camera_view(self) -> bool:
-        """The observation approach sees its camera images and is rewarded from its reports
-        (``wildfire_agent.camera_view``) instead of the true fire. (Evaluation of other
-        policies leaves ``reward`` at its default, unused: it does not turn this on.)"""
-        return sees_cameras(self.observation, self.sensor)
-
-    @property
-    def max_decisions(self) -> int:
-        return decisions_in(self.max_duration_s)
-
-
-class Scenario(NamedTuple):
-    """What an episode seed fixes besides the fire's own random numbers."""
-
-    shape: Shape
-    wind: np.ndarray
-    start: AircraftState
-    masks: ShapeMasks
-    """Cells burning at ignition and cells that may hold fuel (the landscape's start)."""
-
-
-def draw_scenario(seed: int, config: EnvConfig) -> Scenario:
-    """Shape, wind and start poses of episode ``seed`` (its SCENARIO stream, in that order)."""
-    rng = generator(seed, Stream.SCENARIO)
-    shape = Shape.parse(config.shapes[int(rng.integers(len(config.shapes)))])
-    drawn_wind = rng.uniform(-config.max_wind, config.max_wind, size=2)
-    wind = np.asarray(config.wind, dtype=np.float64) if config.wind is not None else drawn_wind
-    masks = config.ground.start(shape, seed, config.border_cells)
-    centres = start_centres_m(masks.ignition, config.n_aircraft)
-    low, high = config.start_range_m
-    start = dynamics.start_poses(rng, config.n_aircraft, centres, low, high)
-    return Scenario(shape=shape, wind=wind, start=start, masks=masks)
+from wildfire_sim.fire import BatchedFire
+from wildfire_sim.shapes import Shape
+from wildfire_world.config import (
+    OBSERVATION_KINDS,
+    REWARD_KINDS,
+    EnvConfig,
+    Scenario,
+    draw_scenario,
+)
+from wildfire_world.errors import WorldError
+from wildfire_world.team_radio import TeamRadio
+from wildfire_world.team_sensing import TeamSensing
 
 
 class StepResult(NamedTuple):
@@ -258,7 +109,7 @@ class WildfireVecEnv:
     def __init__(self, config: EnvConfig, num_envs: int) -> None:
         self.config = config.validate()
         if num_envs < 1:
-            raise LearningError(f"num_envs: expected >= 1, got {num_envs}")
+            raise WorldError(f"num_envs: expected >= 1, got {num_envs}")
         self.num_envs = num_envs
         n = config.n_aircraft
         self.geometry = config.geometry
@@ -305,9 +156,9 @@ class WildfireVecEnv:
         env_ids = np.arange(self.num_envs) if env_ids is None else np.asarray(env_ids, np.int64)
         seeds = np.asarray(seeds, dtype=np.int64).reshape(-1)
         if seeds.size != env_ids.size:
-            raise LearningError(f"reset: got {seeds.size} seeds for {env_ids.size} environments")
+            raise WorldError(f"reset: got {seeds.size} seeds for {env_ids.size} environments")
         if np.any(seeds < 0):
-            raise LearningError("seed: expected numbers >= 0")
+            raise WorldError("seed: expected numbers >= 0")
         scenarios = [draw_scenario(int(seed), self.config) for seed in seeds]
         masks = [s.masks for s in scenarios]
         self.fire.reset(
@@ -349,7 +200,7 @@ class WildfireVecEnv:
         """Advance every unfinished environment by one decision with ``actions`` (E, N)."""
         actions = np.asarray(actions, dtype=np.int64)
         if actions.shape != (self.num_envs, self.config.n_aircraft):
-            raise LearningError(
+            raise WorldError(
                 f"actions: expected shape {(self.num_envs, self.config.n_aircraft)}, "
                 f"got {actions.shape}"
             )
@@ -499,6 +350,8 @@ class VecPolicy(Protocol):
 
 
 __all__ = [
+    "OBSERVATION_KINDS",
+    "REWARD_KINDS",
     "EnvConfig",
     "Scenario",
     "StepResult",

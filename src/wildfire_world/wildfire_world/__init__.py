@@ -1,0 +1,1 @@
+"""The batched world: fleets over fires, as vector and PettingZoo environments."""
