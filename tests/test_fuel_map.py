@@ -187,3 +187,27 @@ def test_unreadable_raster_gets_one_line(tmp_path: Path) -> None:
     done = wildfire("fire", "--fuel-map", str(path), "--steps", "1")
     assert done.returncode == 2 and "not a readable GeoTIFF" in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1
+
+
+def test_a_training_run_takes_the_map_options(tmp_path: Path) -> None:
+    from wildfire_cli import build_parser
+    from wildfire_cli.train import build_config
+
+    path = write_landcover(tmp_path / "landcover.tif", rows=60, cols=80, seed=2)
+    args = build_parser("train").parse_args(
+        ["train", "--fuel-map", str(path), "--fuel-classes", "corine", "--ignitions", "2"]
+    )
+    config = build_config(args, None).validate()
+    env_config = config.env_config()
+    # The raster's extent at 10 m (30 m cells), read once by its absolute path.
+    assert env_config.geometry == MapGeometry(180, 240)
+    assert config.fuel_map == str(path.resolve())
+    assert env_config.landscape is not None and env_config.landscape.ignitions == 2
+    assert env_config.ground.summary()["fuel_map"]["sha256"] == read_fuel_map(
+        path, FuelTable.named("corine")
+    ).sha256
+    cut = build_config(build_parser("train").parse_args(["train", "--map-size", "200,150"]), None)
+    assert cut.env_config().geometry == MapGeometry(200, 150) and cut.env_config().landscape is None
+    result = wildfire("train", "--map-size", "40,100")
+    assert result.returncode == 2 and "--map-size" in result.stderr
+    assert "in [50, 2000]" in result.stderr and "Traceback" not in result.stderr

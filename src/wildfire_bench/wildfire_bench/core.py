@@ -13,20 +13,25 @@ from wildfire_agent.receding_horizon import PlanProblem, plan
 from wildfire_bench.reference_fire import ReferenceFire
 from wildfire_learning.vec_policies import RecedingHorizonVecPolicy
 from wildfire_sim.fire import BatchedFire
-from wildfire_sim.grid import MapGeometry
+from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.landscape import Landscape
 from wildfire_sim.shapes import shape_masks
 from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 
 def bench_fire(
-    steps: int = 80, batch_sizes: tuple[int, ...] = (16, 64, 256, 1024)
+    steps: int = 80,
+    batch_sizes: tuple[int, ...] = (16, 64, 256, 1024),
+    field_map: MapGeometry | None = None,
 ) -> dict[str, Any]:
     """Fire steps per second per environment: batched model vs the single-grid reference.
 
     Every run starts from ignition and takes ``steps`` fire steps (80 steps: about the time
     a windless fire needs to reach the border), so the figure covers small and large fires.
+    The same fire's step on the paper's map and on ``field_map`` (:data:`FIELD_MAP` unless
+    given: ``wildfire bench --map-size``) tells whether the cost follows the fire or the map.
     """
+    field_map = field_map or FIELD_MAP
     masks = shape_masks("circular")
     wind = np.array([0.3, -0.2])
     reference_seeds = 4
@@ -46,12 +51,15 @@ def bench_fire(
             fire.step()
         rates[batch] = batch * steps / (time.perf_counter() - tic)
     best = max(rates, key=rates.__getitem__)
-    by_map = {side: fire_step_ms(side) for side in (100, 1000)}
+    paper_ms, field_ms = fire_step_ms(PAPER_MAP), fire_step_ms(field_map)
+    # Named by the side on square maps (step_ms_map_1000 on the default), else "field".
+    side = str(field_map.rows) if field_map.rows == field_map.cols else "field"
     return {
-        "step_ms_map_100": by_map[100],
-        "step_ms_map_1000": by_map[1000],
+        "step_ms_map_100": paper_ms,
+        f"step_ms_map_{side}": field_ms,
         # Target <= 2: the step's cost follows the fire, not the map.
-        "step_ms_map_ratio": by_map[1000] / by_map[100],
+        "step_ms_map_ratio": field_ms / paper_ms,
+        "field_map": field_map.text,
         "fire_env_steps_per_s": rates[best],
         "fire_batch_size": best,
         "fire_env_steps_per_s_by_batch": {str(k): v for k, v in rates.items()},
@@ -60,11 +68,10 @@ def bench_fire(
     }
 
 
-def fire_step_ms(side: int, preburn_steps: int = 120, timed_steps: int = 20) -> float:
-    """Milliseconds of one fire step of one environment on a ``side`` x ``side`` map: the
-    circular 5 x 5 seed after ``preburn_steps`` fire steps (on 100 x 100 it has reached the
+def fire_step_ms(geometry: MapGeometry, preburn_steps: int = 120, timed_steps: int = 20) -> float:
+    """Milliseconds of one fire step of one environment on ``geometry``: the circular 5 x 5
+    seed at the centre after ``preburn_steps`` fire steps (on 100 x 100 it has reached the
     border), the mean over the next ``timed_steps``."""
-    geometry = MapGeometry(side, side)
     masks = shape_masks("circular", geometry)
     fire = BatchedFire(1, geometry=geometry)
     fire.reset([0], [0], masks.ignition, masks.fuel, np.array([0.3, -0.2]))
@@ -85,14 +92,17 @@ FIELD_IGNITIONS = 3
 """... and three seeded fires."""
 
 
-def _config(observation: str, sensor: str = "disc", field: bool = False) -> EnvConfig:
-    """The bench's world: the paper's map with 2 aircraft, or :data:`FIELD_MAP`."""
+def _config(
+    observation: str, sensor: str = "disc", field_map: MapGeometry | None = None
+) -> EnvConfig:
+    """The bench's world: the paper's map with 2 aircraft, or the field world on
+    ``field_map`` (:data:`FIELD_AIRCRAFT` aircraft, :data:`FIELD_IGNITIONS` fires)."""
     world: dict[str, Any] = {"n_aircraft": 2, "shapes": ("circular", "arc")}
-    if field:
+    if field_map is not None:
         world = {
             "n_aircraft": FIELD_AIRCRAFT,
-            "geometry": FIELD_MAP,
-            "landscape": Landscape(FIELD_MAP, ignitions=FIELD_IGNITIONS),
+            "geometry": field_map,
+            "landscape": Landscape(field_map, ignitions=FIELD_IGNITIONS),
         }
     return EnvConfig(
         observation=observation,
@@ -104,10 +114,14 @@ def _config(observation: str, sensor: str = "disc", field: bool = False) -> EnvC
 
 
 def _decisions_per_s(
-    observation: str, num_envs: int, decisions: int, sensor: str = "disc", field: bool = False
+    observation: str,
+    num_envs: int,
+    decisions: int,
+    sensor: str = "disc",
+    field_map: MapGeometry | None = None,
 ) -> float:
     """Aircraft decisions per second (every aircraft of every environment counts one)."""
-    config = _config(observation, sensor, field)
+    config = _config(observation, sensor, field_map)
     env = WildfireVecEnv(config, num_envs)
     env.reset(np.arange(num_envs))
     rng = np.random.default_rng(0)
@@ -122,12 +136,18 @@ def _decisions_per_s(
     return decisions * num_envs * n / (time.perf_counter() - tic)
 
 
-def bench_env(decisions: int = 300, batch_sizes: tuple[int, ...] = (32, 64, 128)) -> dict[str, Any]:
-    """Aircraft decisions per second of the batched environment, 2 aircraft, random actions.
+def bench_env(
+    decisions: int = 300,
+    batch_sizes: tuple[int, ...] = (32, 64, 128),
+    field_map: MapGeometry | None = None,
+) -> dict[str, Any]:
+    """Aircraft decisions per second of the batched environment, 2 aircraft, random actions,
+    and of the field world on ``field_map`` (:data:`FIELD_MAP` unless given).
 
     Includes rendering every observation (sensor or ego belief images), rewards, visits,
     fire steps and episode resets; not the policy.
     """
+    field_map = field_map or FIELD_MAP
     result: dict[str, Any] = {}
     cases = (
         ("belief", "disc", "decisions_per_s"),
@@ -149,22 +169,23 @@ def bench_env(decisions: int = 300, batch_sizes: tuple[int, ...] = (32, 64, 128)
     # The field world: a 10 km map, 16 aircraft, belief (a few environments: each holds a
     # million cells). Target: >= 25 % of the paper's map's belief rate above.
     field_envs = max(1, batch_sizes[0] // 8)
+    result["field_map"] = field_map.text
     result["decisions_per_s_field"] = _decisions_per_s(
-        "belief", field_envs, max(decisions // 3, 1), field=True
+        "belief", field_envs, max(decisions // 3, 1), field_map=field_map
     )
     result["field_over_paper"] = result["decisions_per_s_field"] / result["decisions_per_s"]
     for sensor in ("disc", "camera"):
         result[f"bytes_per_env_{sensor}"] = env_bytes(sensor, batch_sizes[0])
-    result["bytes_per_env_field"] = env_bytes("disc", field_envs, field=True)
+    result["bytes_per_env_field"] = env_bytes("disc", field_envs, field_map)
     return result
 
 
-def env_bytes(sensor: str, num_envs: int, field: bool = False) -> float:
+def env_bytes(sensor: str, num_envs: int, field_map: MapGeometry | None = None) -> float:
     """Memory one belief-observing environment holds (numpy arrays traced by tracemalloc,
     after a few decisions), for the disc or the camera world, or the field world."""
     tracemalloc.start()
     try:
-        config = _config("belief", sensor, field)
+        config = _config("belief", sensor, field_map)
         env = WildfireVecEnv(config, num_envs)
         env.reset(np.arange(num_envs))
         for _ in range(5):

@@ -11,7 +11,7 @@ from typing import Any
 
 import torch
 
-from wildfire_cli.common import UserError, add_device_argument, print_json
+from wildfire_cli.common import UserError, add_device_argument, map_size, print_json
 
 # name -> (module, function, what it measures); the modules import lazily so a missing
 # optional part (e.g. no trained model yet) only skips its own figures.
@@ -45,6 +45,8 @@ SIZES: dict[str, dict[str, dict[str, Any]]] = {
 """Sizes of the suites that take them as numbers, for ``--quick`` and ``--smoke``."""
 DEVICE_CAPABLE = {"inference"}
 """Suites that time networks and so take ``--device``."""
+MAP_CAPABLE = {"fire", "env"}
+"""Suites with field-world figures, whose map ``--map-size`` sets."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -68,6 +70,13 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "meaningless; the tests run the whole bench so on both runtimes)",
     )
     add_device_argument(parser, "cpu", "the inference and training figures")
+    parser.add_argument(
+        "--map-size",
+        type=map_size,
+        metavar="R,C",
+        help="the field world's map of the fire and env suites (default 1000,1000: "
+        "fire.step_ms_map_1000, env.decisions_per_s_field, env.bytes_per_env_field)",
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.set_defaults(handler=run)
 
@@ -109,6 +118,8 @@ def run(args: argparse.Namespace) -> int:
             kwargs |= {"quick": args.quick, "smoke": args.smoke}
         if name in DEVICE_CAPABLE:
             kwargs["device"] = str(device)
+        if name in MAP_CAPABLE and args.map_size is not None:
+            kwargs["field_map"] = args.map_size
         figures = function(**kwargs)
         figures["bench_seconds"] = time.perf_counter() - tic
         results[name] = figures

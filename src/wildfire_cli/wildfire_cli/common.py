@@ -193,24 +193,11 @@ def add_map_arguments(parser: argparse.ArgumentParser | argparse._ActionsContain
 
 def landscape_of(args: argparse.Namespace) -> Landscape | None:
     """The landscape of ``add_map_arguments``; None for the paper's fuel and shapes."""
-    from wildfire_sim.fuel_map import FuelTable, read_fuel_map, read_ignition_map
+    from wildfire_sim.landscape import read_landscape
 
-    geometry: MapGeometry | None = args.map_size
-    if args.fuel_classes is not None and args.fuel_map is None:
-        raise UserError("--fuel-classes: expected a --fuel-map to read them from")
-    fuel = None
-    if args.fuel_map is not None:
-        classes = FuelTable.named(args.fuel_classes) if args.fuel_classes else None
-        fuel = read_fuel_map(args.fuel_map, classes)
-        if geometry is None:
-            geometry = fuel.geometry
-        elif geometry != fuel.geometry:
-            fuel = fuel.cropped(geometry)
-    geometry = geometry or PAPER_MAP
-    if fuel is None and args.ignition_map is None and not args.ignitions:
-        return None
-    ignition = None if args.ignition_map is None else read_ignition_map(args.ignition_map, geometry)
-    return Landscape(geometry, fuel, ignition, args.ignitions)
+    return read_landscape(
+        args.map_size, args.fuel_map, args.fuel_classes, args.ignition_map, args.ignitions
+    )
 
 
 def map_settings(args: argparse.Namespace) -> dict[str, Any]:

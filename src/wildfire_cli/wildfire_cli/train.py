@@ -22,6 +22,7 @@ from wildfire_cli.common import (
     UserError,
     add_device_argument,
     comm_model,
+    map_size,
     non_negative_int,
     pixel_error,
     positive_float,
@@ -51,6 +52,18 @@ def add_config_options(parser: argparse.ArgumentParser) -> None:
             parser.add_argument(option, choices=meta["choices"], **common)
         elif meta.get("pixel_error"):
             parser.add_argument(option, type=pixel_error, metavar="P", **common)
+        elif meta.get("map_size"):
+            # Checked as --map-size is everywhere, stored as its text.
+            parser.add_argument(
+                option, type=lambda text: map_size(text).text, metavar="R,C", **common
+            )
+        elif meta.get("path"):
+            # Stored absolute: a resumed run finds the file from any directory.
+            parser.add_argument(
+                option, type=lambda text: str(Path(text).resolve()), metavar="FILE", **common
+            )
+        elif isinstance(default, str) and "choices" not in meta and not meta.get("comm"):
+            parser.add_argument(option, metavar="NAME", **common)
         elif meta.get("comm"):
             # Checked as --comm is everywhere, stored as its canonical text.
             parser.add_argument(

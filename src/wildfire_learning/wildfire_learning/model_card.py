@@ -57,6 +57,8 @@ def policy_card(
         "image_shape": list(image_shape(config.approach, config.sensor)),
         "actions": ["bank -5 deg", "bank +5 deg"],
         "config": asdict(config),
+        # The ground it trained on, the fuel raster by its hash (a path alone could change).
+        "world": config.env_config().ground.summary(),
         "iterations": state.iterations,
         "samples": state.samples,
         "wall_time_s": round(state.wall_time_s, 1),

@@ -30,7 +30,9 @@ from wildfire_belief.radio import CommError, CommModel
 from wildfire_learning.architectures import ARCHITECTURES, build_q_network, network_name
 from wildfire_learning.errors import LearningError
 from wildfire_learning.evaluate import VALIDATION_SEED_BASE
+from wildfire_msgs_py.map_geometry import PAPER_MAP, MapGeometry, MapGeometryError
 from wildfire_sim.episode import EPISODE_DEFAULTS
+from wildfire_sim.landscape import read_landscape
 from wildfire_world.env import EnvConfig
 
 EVAL_SEED_BASE = VALIDATION_SEED_BASE
@@ -132,6 +134,31 @@ class TrainConfig:
     )
     wind_filter: bool = hyperparameter(
         False, "Under noisy sensing, estimate the wind for the belief's process term."
+    )
+    map_size: str = hyperparameter(
+        PAPER_MAP.text,
+        "Rows and columns of 10 m cells (``R,C``, each in [50, 2000]; a fuel map's extent "
+        "when one is given and this is left at the default).",
+        map_size=True,
+    )
+    fuel_map: str = hyperparameter(
+        "",
+        "Fuel raster (GeoTIFF or .npy, stored as an absolute path; empty: the paper's fuel).",
+        path=True,
+    )
+    fuel_classes: str = hyperparameter(
+        "", "The fuel map holds land-cover classes: ``corine``, ``fbfm13`` or a YAML table."
+    )
+    ignition_map: str = hyperparameter(
+        "",
+        "Cells burning at the start, from a raster (empty: the shape or --ignitions).",
+        path=True,
+    )
+    ignitions: int = hyperparameter(
+        0, "Seeded 5 x 5 ignition blocks instead of the shape (0: the shape).", min=0
+    )
+    preburn_area_m2: float = hyperparameter(
+        0.0, "If > 0: pre-burn until the fire has touched this area (m2).", name="preburn-area"
     )
     episode_seconds: float = hyperparameter(
         EPISODE_DEFAULTS.duration_s, "Time limit of an episode (training and evaluation)."
@@ -286,7 +313,28 @@ class TrainConfig:
             sensor=self.sensor,
             pixel_error=self.pixel_error,
             wind_filter=self.wind_filter,
+            **self.map_settings(),
         ).validate()
+
+    def map_settings(self) -> dict[str, Any]:
+        """The map's :class:`EnvConfig` fields (``wildfire_sim.landscape.read_landscape``)."""
+        try:
+            geometry = MapGeometry.parse(self.map_size)
+        except MapGeometryError as error:
+            raise LearningError(str(error)) from None
+        given = None if geometry.is_paper and self.fuel_map else geometry
+        landscape = read_landscape(
+            given,
+            Path(self.fuel_map) if self.fuel_map else None,
+            self.fuel_classes or None,
+            Path(self.ignition_map) if self.ignition_map else None,
+            self.ignitions,
+        )
+        return {
+            "geometry": landscape.geometry if landscape else geometry,
+            "landscape": landscape,
+            "preburn_area_m2": self.preburn_area_m2,
+        }
 
     def reward_kind(self) -> str:
         """The approach whose reward the run trains on (``obs`` or ``belief``)."""

@@ -18,6 +18,8 @@ one rule every fire of the project starts by (the environment, the fire-simulato
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -125,4 +127,37 @@ PAPER_LANDSCAPE = Landscape()
 """The paper's world: 100 x 100 cells of homogeneous fuel, named shapes at the centre."""
 
 
-__all__ = ["BLOCK_RADIUS", "MAX_IGNITIONS", "PAPER_LANDSCAPE", "Landscape"]
+@lru_cache(maxsize=8)
+def read_landscape(
+    geometry: MapGeometry | None,
+    fuel_map: Path | None = None,
+    fuel_classes: str | None = None,
+    ignition_map: Path | None = None,
+    ignitions: int = 0,
+) -> Landscape | None:
+    """The landscape the map options describe (``--map-size``, ``--fuel-map``,
+    ``--fuel-classes``, ``--ignition-map``, ``--ignitions``); None for the paper's fuel and
+    shapes on ``geometry``. A fuel map sets the map's extent unless ``geometry`` is given,
+    and is then cut to it about its centre.
+
+    The one reading of those options: the command line and a training run's config both
+    call it. Cached, so that a config rebuilt many times reads its rasters once."""
+    from wildfire_sim.fuel_map import FuelTable, read_fuel_map, read_ignition_map
+
+    if fuel_classes and fuel_map is None:
+        raise FireConfigError("--fuel-classes: expected a --fuel-map to read them from")
+    fuel = None
+    if fuel_map is not None:
+        fuel = read_fuel_map(fuel_map, FuelTable.named(fuel_classes) if fuel_classes else None)
+        if geometry is None:
+            geometry = fuel.geometry
+        elif geometry != fuel.geometry:
+            fuel = fuel.cropped(geometry)
+    geometry = geometry or PAPER_MAP
+    if fuel is None and ignition_map is None and not ignitions:
+        return None
+    ignition = None if ignition_map is None else read_ignition_map(ignition_map, geometry)
+    return Landscape(geometry, fuel, ignition, ignitions)
+
+
+__all__ = ["BLOCK_RADIUS", "MAX_IGNITIONS", "PAPER_LANDSCAPE", "Landscape", "read_landscape"]
