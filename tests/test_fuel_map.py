@@ -203,9 +203,10 @@ def test_a_training_run_takes_the_map_options(tmp_path: Path) -> None:
     assert env_config.geometry == MapGeometry(180, 240)
     assert config.fuel_map == str(path.resolve())
     assert env_config.landscape is not None and env_config.landscape.ignitions == 2
-    assert env_config.ground.summary()["fuel_map"]["sha256"] == read_fuel_map(
-        path, FuelTable.named("corine")
-    ).sha256
+    assert (
+        env_config.ground.summary()["fuel_map"]["sha256"]
+        == read_fuel_map(path, FuelTable.named("corine")).sha256
+    )
     cut = build_config(build_parser("train").parse_args(["train", "--map-size", "200,150"]), None)
     assert cut.env_config().geometry == MapGeometry(200, 150) and cut.env_config().landscape is None
     result = wildfire("train", "--map-size", "40,100")
