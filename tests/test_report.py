@@ -234,3 +234,18 @@ def test_field_scenarios_parse_and_fly(tmp_path: Path) -> None:
                 "landcover:301x300:ignitions=1:aircraft=2"):  # fmt: skip
         with pytest.raises(LearningError, match="scenario"):
             Scenario.parse(bad)
+
+
+def test_fleets_of_one_world_make_a_fleet_curve(tmp_path: Path) -> None:
+    """Scenarios that differ only in their fleet form a series: a table by fleet size and
+    ``fleet.png``; the ceiling is the fire's, the same for every fleet."""
+    out = tmp_path / "report"
+    worlds = "field:200x200:ignitions=2:aircraft=2 field:200x200:ignitions=2:aircraft=4"
+    summary = quick_report(out, "random rh", worlds + " circular:2")
+    assert str(out / "fleet.png") in summary["files"] and (out / "fleet.png").stat().st_size
+    markdown = (out / "results.md").read_text()
+    section = markdown.split("## Score against fleet size: field 200 x 200, 2 fires")[1]
+    assert "| policy | 2 aircraft | 4 aircraft |" in section and "circular" not in section
+    two, four = (summary["cells"][f"field200x200_ign2_{n}aircraft"]["rh"] for n in (2, 4))
+    assert f"| receding horizon | {two['ceiling_fraction']:.0%} ({two['mean']:.0f})" in section
+    assert four["ceiling_fraction"] >= 0

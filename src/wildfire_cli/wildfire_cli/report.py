@@ -28,6 +28,7 @@ from wildfire_cli.common import (
 from wildfire_cli.progress import progress_bar
 from wildfire_learning.comm_sweep import plot_sweep, sweep_markdown
 from wildfire_learning.evaluate import TEST_SEED_BASE, EvaluationSummary, evaluate
+from wildfire_learning.fleet_report import fleet_markdown, plot_fleet
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.plots import (
     CURVE_CSV,
@@ -376,8 +377,14 @@ def run(args: argparse.Namespace) -> int:
             "(docs/model.md, Realistic sensing)."
         )
     markdown = results_markdown(results, scenarios, policies, protocol)
+    fleets = fleet_markdown(results, scenarios, policies)
+    if fleets:
+        markdown += "\n" + fleets
     (out_dir / "results.md").write_text(markdown)
     plot_scores(results, scenarios, policies, out_dir / "scores.png")
+    figures = ["scores.png"]
+    if plot_fleet(results, scenarios, policies, out_dir / "fleet.png"):
+        figures.append("fleet.png")
     cells = table_cells(results)
     summary_json = {
         "protocol": protocol,
@@ -390,7 +397,7 @@ def run(args: argparse.Namespace) -> int:
         "cells": {s: {c: vars(cell) for c, cell in row.items()} for s, row in cells.items()},
         "evaluated": evaluated,
         "reused": len(scenarios) * len(policies) - len(evaluated),
-        "files": [str(out_dir / name) for name in ("results.md", "results.json", "scores.png")],
+        "files": [str(out_dir / name) for name in ("results.md", "results.json", *figures)],
     }
     (out_dir / "results.json").write_text(json.dumps(summary_json, indent=1) + "\n")
     if args.json:
