@@ -21,6 +21,7 @@ from wildfire_agent.rewards import ObservationRewardWeights
 from wildfire_learning.errors import LearningError
 from wildfire_learning.replay import ImageCodec
 from wildfire_world.env import EnvConfig, WildfireVecEnv
+from wildfire_world.errors import WorldError
 
 CAMERA_WORLD = EnvConfig(observation="obs", reward="obs", sensor="camera", pixel_error=0.1)
 POSES = [
@@ -152,7 +153,7 @@ def test_the_environment_rewards_its_camera_images_world() -> None:
 
 
 def test_the_observation_approach_needs_cameras_under_noise() -> None:
-    with pytest.raises(LearningError, match="--sensor camera"):
+    with pytest.raises(WorldError, match="--sensor camera"):
         EnvConfig(observation="obs", sensor="disc", pixel_error=0.1).validate()
 
 
