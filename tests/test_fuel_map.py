@@ -132,7 +132,8 @@ def test_seeded_ignitions_lie_on_fuel_away_from_the_border() -> None:
     assert (first == landscape.start("circular", 11, 6).ignition).all()  # the seed fixes it
     assert not (first == landscape.start("circular", 12, 6).ignition).all()
     rows, cols = np.nonzero(first)
-    assert cols.min() >= 150 and rows.min() >= 7 and rows.max() <= 292 and cols.max() <= 292
+    # A fifth of the side (60 cells) from the edge, less the block's radius of 2.
+    assert cols.min() >= 150 and rows.min() >= 58 and rows.max() <= 241 and cols.max() <= 241
     assert 5 * 9 <= first.sum() <= 5 * 25  # five 5 x 5 blocks, some clipped at the halfline
 
 
