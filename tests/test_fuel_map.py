@@ -213,3 +213,19 @@ def test_a_training_run_takes_the_map_options(tmp_path: Path) -> None:
     result = wildfire("train", "--map-size", "40,100")
     assert result.returncode == 2 and "--map-size" in result.stderr
     assert "in [50, 2000]" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_map_size_sets_the_field_world_of_the_fire_and_env_suites() -> None:
+    from wildfire_bench.core import bench_env, bench_fire
+    from wildfire_sim.grid import MapGeometry
+
+    fire = bench_fire(steps=2, batch_sizes=(4,), field_map=MapGeometry(200, 300))
+    assert fire["field_map"] == "200,300" and fire["step_ms_map_field"] > 0
+    assert fire["step_ms_map_ratio"] == fire["step_ms_map_field"] / fire["step_ms_map_100"]
+    env = bench_env(decisions=3, batch_sizes=(8,), field_map=MapGeometry(200, 300))
+    assert env["field_map"] == "200,300" and env["decisions_per_s_field"] > 0
+    # A 200 x 300 field holds less than the default 1000 x 1000 one, more than the paper's.
+    assert env["bytes_per_env_disc"] < env["bytes_per_env_field"] < 2e6
+    result = wildfire("bench", "--only", "fire", "--map-size", "3000,100")
+    assert result.returncode == 2 and "--map-size" in result.stderr
+    assert "Traceback" not in result.stderr
