@@ -1,4 +1,4 @@
-"""`wildfire bench` as the README shows it: every suite, no ``--only``, on the runtime of the
+"""`wildfire bench` as docs/cli.md shows it: every suite, no ``--only``, on the runtime of the
 test pass (``scripts/test.sh`` runs this once on real rclpy and once on the Cyclone layer;
 the second time only the suites whose code depends on the backend: dds, system, network).
 

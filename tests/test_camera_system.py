@@ -43,7 +43,7 @@ def fresh_evaluation(policy: str, config: EnvConfig, seed: int, record: bool = F
     eval --workers 2`` flies it. In this test process, after the other tests here, an
     evaluation of the obs-camera run below scored 262 in 2 of 7 runs, where the system, the
     aggregator and every fresh process scored 276; what in the process state changes it is
-    not found yet (README, Testing)."""
+    not found yet (docs/testing.md)."""
     job = EvalJob(policy, config, (seed,), record=record)
     return evaluate_jobs([job], workers=2)[0].episodes[0]
 

@@ -11,8 +11,10 @@ fails (and so does one of ``COMMANDS`` the README no longer shows).
 ``mkdir -p runs`` where a test needs it; ``examples/`` links to the repository's). ``wildfire``
 commands get ``--json`` added, to read their summary; those that start no system run in this
 process through ``wildfire_cli.main`` (no second torch import). ``wildfire run``, the scripts
-and ``mkdir`` run as subprocesses, and the tests that start a system carry the system tests'
-marker ``dds`` (one system at a time, on the system worker of ``scripts/test.sh``). Commands
+and ``mkdir`` run as subprocesses, and the tests that start a system join the system tests'
+xdist group (one system at a time, on the system worker of ``scripts/test.sh``). They are
+not marked ``dds``: a user runs the README on the default runtime, and the Cyclone pass
+already flies every system the tour shows (tests/test_run_system.py). Commands
 that would take minutes to hours run shortened, as ``SHORTENED`` lists: each ``(old, new)``
 replaces text of the README's command, and fails if ``old`` is no longer in it.
 
@@ -213,7 +215,7 @@ def test_nothing_points_outside_the_project() -> None:
 # --- quick start --------------------------------------------------------------------------------
 
 
-@pytest.mark.dds
+@pytest.mark.xdist_group("system")
 @pytest.mark.timeout(240)
 def test_demo_script(tmp_path: Path, dds_env: dict[str, str]) -> None:
     script = REPO / "scripts" / "demo.sh"
@@ -261,7 +263,7 @@ def test_the_full_suite_is_what_ci_runs() -> None:
 # --- the tour -----------------------------------------------------------------------------------
 
 
-@pytest.mark.dds
+@pytest.mark.xdist_group("system")
 @pytest.mark.timeout(240)
 def test_lockstep_run_and_its_bag(
     workdir: Path, dds_env: dict[str, str], capsys: pytest.CaptureFixture[str]
@@ -295,7 +297,7 @@ def free_port() -> int:
         return int(probe.getsockname()[1])
 
 
-@pytest.mark.dds
+@pytest.mark.xdist_group("system")
 @pytest.mark.timeout(240)
 def test_realtime_run_watched_in_foxglove(workdir: Path, dds_env: dict[str, str]) -> None:
     """Headless: a Foxglove protocol client (tests/foxglove_client.py) stands in for the app."""

@@ -34,7 +34,7 @@ Decisions beyond the paper (documented here, reported in the card):
   prefers (single-Q runs here drifted into full-bank circles, where one action is a no-op).
 * Epsilon falls at the slope of "1 to 0.1 over 200 000 samples" but stops at 0.5, reached
   after 111 111 samples (iteration ~7 600); the paper goes on to 0.1 (the scripts: after
-  500 000 samples). Measured on two seeds each (README, *Training*): with the fall to 0.1
+  500 000 samples). Measured on two seeds each (docs/training/dqn.md): with the fall to 0.1
   both seeds' validation score collapsed late (1 782 and 1 635 at 16 000 iterations, from
   peaks of 2 025 and 1 952), the aircraft bunching on the same stretch of front; held at 0.5
   the same seeds scored 2 003 and 1 853 there (+222 and +218, paired) and plateaued. The

@@ -21,8 +21,8 @@ alone over 6 s.
 team from where the aircraft now are, on the episode's known future, with the cells the team
 has already scored counted as covered, and labels each aircraft with its plan's first
 action. It is the oracle's own re-plan (``oracle.replan_team``) without the incumbents and the
-whole-episode refinement; its labels cost about ten times the ``rh`` teacher's (README,
-Training)."""
+whole-episode refinement; its labels cost about ten times the ``rh`` teacher's
+(docs/training/dqn.md)."""
 
 from __future__ import annotations
 
