@@ -7,11 +7,11 @@ scope. ``test_the_readme_shows_the_commands_tested_here`` asserts that the READM
 are exactly the keys of ``COMMANDS``, so a command added to the README without a test here
 fails (and so does one of ``COMMANDS`` the README no longer shows).
 
-**How each one runs.** In a temporary working folder (``runs/`` is made there by the README's
-``mkdir -p runs`` where a test needs it; ``examples/`` links to the repository's). ``wildfire``
+**How each one runs.** In a temporary working folder (``examples/`` links to the
+repository's; ``runs/`` is made by the first command that writes there). ``wildfire``
 commands get ``--json`` added, to read their summary; those that start no system run in this
 process through ``wildfire_cli.main`` (no second torch import). ``wildfire run``, the scripts
-and ``mkdir`` run as subprocesses, and the tests that start a system join the system tests'
+run as subprocesses, and the tests that start a system join the system tests'
 xdist group (one system at a time, on the system worker of ``scripts/test.sh``). They are
 not marked ``dds``: a user runs the README on the default runtime, and the Cyclone pass
 already flies every system the tour shows (tests/test_run_system.py). Commands
@@ -49,7 +49,6 @@ COMMANDS: dict[str, str] = {
     "scripts/demo.sh": "test_demo_script",
     "scripts/test.sh --quick": "test_quick_suite_script",
     "scripts/test.sh": "test_the_full_suite_is_what_ci_runs",
-    "mkdir -p runs": "test_lockstep_run_and_its_bag",
     "wildfire run --aircraft 3 --duration 20 --fast --record runs/demo":
         "test_lockstep_run_and_its_bag",
     "wildfire bag info runs/demo": "test_lockstep_run_and_its_bag",
@@ -268,8 +267,6 @@ def test_the_full_suite_is_what_ci_runs() -> None:
 def test_lockstep_run_and_its_bag(
     workdir: Path, dds_env: dict[str, str], capsys: pytest.CaptureFixture[str]
 ) -> None:
-    mkdir = shlex.split(as_run("mkdir -p runs"))
-    subprocess.run(mkdir, cwd=workdir, check=True, timeout=10)
     command = "wildfire run --aircraft 3 --duration 20 --fast --record runs/demo"
     done = subprocess.run(
         wildfire_run(command, workdir, dds_env), cwd=workdir, env=dds_env,

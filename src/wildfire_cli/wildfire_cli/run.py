@@ -13,6 +13,7 @@ bridge, see :mod:`wildfire_testbed.hosts`), which the run creates and removes; `
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 from pathlib import Path
@@ -154,6 +155,8 @@ def check_record_dir(path: Path) -> Path:
     if path.exists():
         raise UserError(f"--record {path}: already exists (give a new directory)")
     parent = path.resolve().parent
+    with contextlib.suppress(OSError):
+        parent.mkdir(parents=True, exist_ok=True)  # as `mkdir -p`: runs/demo needs no runs/
     if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
         raise UserError(f"--record {path}: cannot create it ({parent} is not a writable directory)")
     return path

@@ -202,9 +202,11 @@ def run(args: argparse.Namespace) -> int:
         time_limit_s=args.time_limit,
     )
     # The run creates its own directory, so an --out inside it is fine before it exists.
-    inside_run_dir = out.parent.resolve() == run_dir.resolve()
-    if args.out is not None and not out.parent.is_dir() and not inside_run_dir:
-        raise UserError(f"--out {out}: directory {out.parent} does not exist")
+    if args.out is not None:
+        try:
+            out.parent.mkdir(parents=True, exist_ok=True)  # as `mkdir -p`
+        except OSError as error:
+            raise UserError(f"--out {out}: cannot create {out.parent} ({error.strerror})") from None
 
     # `kill PID` of a background run checkpoints like Ctrl-C does (see dqn.train).
     interrupt_on_stop_signals()

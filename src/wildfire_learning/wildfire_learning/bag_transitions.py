@@ -467,7 +467,7 @@ def transitions_from_bags(
         if recording.states.shape[1] != config.n_aircraft:
             raise LearningError(
                 f"bag {bag}: {recording.states.shape[1]} aircraft, the network is trained "
-                f"for {config.n_aircraft}"
+                f"for {config.n_aircraft} (give --n-aircraft {recording.states.shape[1]})"
             )
         sequences += rebuild_transitions(recording, approach, config)
     return sequences
