@@ -9,6 +9,7 @@
   and its veth only and has no default route, the bridge namespace holds the bridge and the hosts'
   veth ends only, the root namespace gained no interface, and a packet socket on the real
   interface sees no frame from or to the run's subnet. Afterwards no namespace of the run is left.
+* On each backend, composed agents (``--agents-per-process``) on three hosts fly eval's flight.
 * On each backend, SIGINT mid-run stops the nodes and removes every namespace.
 
 Each system test sets ``WILDFIRE_ROS_BACKEND`` itself. They are marked ``dds`` as the other
@@ -369,6 +370,37 @@ def test_four_hosts_equal_eval_and_stay_off_the_network(backend: str, tmp_path: 
     # Every host sent and received over the bridge: the nodes did talk across it.
     for host in summary["hosts"]:
         assert host["traffic"]["sent_packets"] > 0 and host["traffic"]["received_packets"] > 0
+
+
+@needs_namespaces
+@pytest.mark.dds
+@pytest.mark.slow
+@pytest.mark.timeout(RUN_TIMEOUT_S + 60)
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_composed_agents_on_hosts_equal_eval(backend: str, tmp_path: Path) -> None:
+    """``--agents-per-process 2`` on three hosts: the agents' host runs uav0 and uav1 in one
+    process and uav2 alone, and the flight is eval's."""
+    from wildfire_learning.evaluate import evaluate
+    from wildfire_learning.vec_policies import make_vec_policy
+    from wildfire_world.env import EnvConfig
+
+    require_backend(backend, own_pass_only=True)
+    n, seed, duration = 3, 5, 10.0
+    args = ["--aircraft", str(n), "--policy", "rh", "--seed", str(seed), "--fast", "--json"]
+    args += ["--duration", str(duration), "--wind", "0.3,-0.2", "--hosts", "3"]
+    args += ["--agents-per-process", "2", "--log-dir", str(tmp_path / "logs")]
+    process = _start(args, backend)
+    stdout, stderr = process.communicate(timeout=RUN_TIMEOUT_S)
+    assert process.returncode == 0, stderr[-3000:]
+    summary = json.loads(stdout)
+    config = EnvConfig(
+        n_aircraft=n, shapes=("circular",), wind=(0.3, -0.2), max_duration_s=duration
+    )
+    reference = evaluate(make_vec_policy("rh"), config, [seed]).episodes[0]
+    assert summary["backend"] == backend
+    assert (summary["score"], summary["decisions"]) == (reference.score, reference.decisions)
+    assert summary["composed_agents"] == {"agents0": ["uav0", "uav1"]}
+    assert summary["hosts"][2]["nodes"] == ["uav0", "uav1", "uav2"]
 
 
 @needs_namespaces

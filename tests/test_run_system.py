@@ -28,7 +28,12 @@ def children_of(pid: int) -> list[int]:
         ["ps", "-eww", "-o", "pid,ppid,args"], capture_output=True, text=True
     ).stdout
     rows = [line.split(None, 2) for line in out.splitlines()[1:]]
-    return [int(r[0]) for r in rows if len(r) == 3 and int(r[1]) == pid and "_node" in r[2]]
+    nodes = ("_node", "wildfire_agent.agent_group")  # a lone node's module, composed agents'
+    return [
+        int(r[0])
+        for r in rows
+        if len(r) == 3 and int(r[1]) == pid and any(word in r[2] for word in nodes)
+    ]
 
 
 def alive(pids: list[int]) -> list[int]:
@@ -74,24 +79,15 @@ def obs_policy(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize(
-    ("policy", "n", "duration"),
-    [
-        ("rh", 3, 30.0),
-        ("rh-paper", 3, 20.0),
-        ("random", 2, 30.0),
-        ("obs", 2, 20.0),
-    ],
-)
-def test_lockstep_run_equals_evaluate(
-    tmp_path: Path, dds_env: dict[str, str], obs_policy: Path, policy: str, n: int, duration: float
-) -> None:
+def fly_and_compare_with_evaluate(
+    tmp_path: Path, env: dict[str, str], name: str, n: int, duration: float, extra: list[str]
+) -> dict[str, object]:
+    """``wildfire run --fast`` (recorded, seed 5) equals ``wildfire eval``: score, ceiling,
+    decisions and every exact state of the bag; its summary."""
     from wildfire_msgs_py.codecs import score_from_msg
     from wildfire_msgs_py.system_codecs import stamped_state_from_msg
     from wildfire_ros.bag import read_messages
 
-    name = str(obs_policy) if policy == "obs" else policy
     seed = 5
     bag = tmp_path / "bag"
     logs = tmp_path / "logs"
@@ -111,12 +107,11 @@ def test_lockstep_run_equals_evaluate(
             "--json",
             "--record",
             str(bag),
-            "--png",
-            str(tmp_path / "r.png"),
             "--wind",
             "0.3,-0.2",
+            *extra,
         ],
-        dds_env,
+        env,
     )
     assert result.returncode == 0, result.stderr
     summary = json.loads(result.stdout)
@@ -128,7 +123,6 @@ def test_lockstep_run_equals_evaluate(
     assert summary["score_ceiling"] == reference.score_ceiling
     assert summary["decisions"] == reference.decisions
     assert summary["trajectory_points"] == reference.trajectory.shape[0]
-    assert (tmp_path / "r.png").stat().st_size > 10_000
 
     # The recording holds every exact state: the flight paths equal the environment's.
     states: dict[str, dict[int, np.ndarray]] = {}
@@ -146,6 +140,43 @@ def test_lockstep_run_equals_evaluate(
         path = np.array([recorded[t][:2] for t in sorted(recorded)])
         assert np.array_equal(path, reference.trajectory[:, k])
     assert scores[-1] == reference.score
+    return dict(summary)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("policy", "n", "duration"),
+    [
+        ("rh", 3, 30.0),
+        ("rh-paper", 3, 20.0),
+        ("random", 2, 30.0),
+        ("obs", 2, 20.0),
+    ],
+)
+def test_lockstep_run_equals_evaluate(
+    tmp_path: Path, dds_env: dict[str, str], obs_policy: Path, policy: str, n: int, duration: float
+) -> None:
+    name = str(obs_policy) if policy == "obs" else policy
+    png = tmp_path / "r.png"
+    fly_and_compare_with_evaluate(tmp_path, dds_env, name, n, duration, ["--png", str(png)])
+    assert png.stat().st_size > 10_000
+
+
+def test_composed_agents_run_equals_evaluate(tmp_path: Path, dds_env: dict[str, str]) -> None:
+    """Two agent nodes in one process (``agent_group``), one alone: the same flight as eval."""
+    summary = fly_and_compare_with_evaluate(
+        tmp_path, dds_env, "rh", 3, 10.0, ["--agents-per-process", "2"]
+    )
+    assert summary["composed_agents"] == {"agents0": ["uav0", "uav1"]}
+    logs = tmp_path / "logs"
+    assert sorted(log.name for log in logs.glob("*.log")) == [
+        "agents0.log",
+        "belief_aggregator.log",
+        "fire_simulator.log",
+        "uav2.log",
+    ]
+    composed = (logs / "agents0.log").read_text()
+    assert "uav0: policy rh (lockstep)" in composed and "uav1: policy rh (lockstep)" in composed
 
 
 def test_realtime_smoke(tmp_path: Path, dds_env: dict[str, str]) -> None:
@@ -251,6 +282,34 @@ def test_killed_node_is_named_and_the_bag_is_finalized(
     assert alive(nodes) == []
 
 
+def test_killed_composed_process_names_all_its_nodes(
+    tmp_path: Path, dds_env: dict[str, str]
+) -> None:
+    """SIGKILL of the one process carrying both agents: the failure names both nodes."""
+    process, logs = _start_run(
+        tmp_path, dds_env, ["--realtime", "--duration", "60", "--agents-per-process", "2"]
+    )
+    try:
+        _wait_for_line(logs / "agents0.log", "uav1: policy random")
+        _wait_for_line(logs / "agents0.log", "uav0: policy random")
+        nodes = children_of(process.pid)
+        groups = [pid for pid in nodes if "wildfire_agent.agent_group" in _args_of(pid)]
+        assert len(nodes) == 3 and len(groups) == 1, [_args_of(pid) for pid in nodes]
+        time.sleep(1.0)
+        os.kill(groups[0], signal.SIGKILL)
+        _, stderr = process.communicate(timeout=30)
+    finally:
+        _stop(process)
+    assert process.returncode == 2
+    assert "nodes uav0, uav1 (process agents0) died (signal 9)" in stderr, stderr
+    assert len(stderr.strip().splitlines()) == 1
+    assert alive(nodes) == []
+
+
+def _args_of(pid: int) -> str:
+    return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+
+
 @pytest.mark.slow
 def test_respawned_nodes_carry_on(tmp_path: Path, dds_env: dict[str, str]) -> None:
     from wildfire_msgs_py.codecs import score_from_msg, time_from_msg
@@ -296,6 +355,7 @@ def test_respawned_nodes_carry_on(tmp_path: Path, dds_env: dict[str, str]) -> No
         (["--policy", "nonsense"], "--policy 'nonsense'"),
         (["--policy", "missing.pt"], "missing.pt: no such file"),
         (["--aircraft", "0"], "expected a number >= 1"),
+        (["--agents-per-process", "0"], "argument --agents-per-process: expected a number >= 1"),
         (["--wind", "0.5"], "expected WX,WY"),
         (["--record", "/proc/forbidden/bag"], "--record /proc/forbidden/bag"),
     ],

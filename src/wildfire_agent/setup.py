@@ -32,6 +32,7 @@ setup(
     entry_points={
         "console_scripts": [
             "agent = wildfire_agent.agent_node:main",
+            "agent_group = wildfire_agent.agent_group:main",
         ],
     },
 )

@@ -4,7 +4,10 @@ Real-time mode (wall clocks): the fire simulator, the belief aggregator and one 
 aircraft in namespaces ``/uav0`` ... Start poses are spread on a circle around the map
 centre; parameters come from ``config/wildfire.yaml`` of this package. (``wildfire run``
 draws start poses from the seed and offers lockstep mode.) ``foxglove:=8765`` adds the
-Foxglove live view on that 127.0.0.1 port.
+Foxglove live view on that 127.0.0.1 port. ``agents_per_process:=K`` composes the agents, at
+most K to a process (``agent_group``, one ``--node`` section per agent), by the rule of
+``wildfire run --agents-per-process`` (:mod:`wildfire_bringup.agent_processes`); left empty,
+one agent per process up to 8 aircraft.
 """
 
 from __future__ import annotations
@@ -14,6 +17,9 @@ import os
 import sys
 
 from ament_index_python.packages import get_package_share_directory
+
+from wildfire_bringup.agent_processes import agent_groups
+from wildfire_ros.node_support import NODE_SECTION
 
 try:
     from launch.actions import DeclareLaunchArgument, OpaqueFunction
@@ -29,6 +35,25 @@ except ImportError:
         file=sys.stderr,
     )
     raise SystemExit(2) from None
+
+
+def _ros_value(value):
+    """A ``-p`` value as ``wildfire run`` writes it (floats in full, bools lower case)."""
+    if isinstance(value, float):
+        return repr(value)
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
+def _composed(group, params, values):
+    """One ``agent_group`` process for the aircraft of ``group`` (``values[k]``: agent k's)."""
+    arguments = []
+    for k in group:
+        arguments += [NODE_SECTION, "--ros-args", "--params-file", params, "-r", f"__ns:=/uav{k}"]
+        for name, value in values[k].items():
+            arguments += ["-p", f"{name}:={_ros_value(value)}"]
+    return Node(
+        package="wildfire_agent", executable="agent_group", arguments=arguments, output="screen"
+    )
 
 
 def _nodes(context, *_args, **_kwargs):
@@ -55,27 +80,31 @@ def _nodes(context, *_args, **_kwargs):
             output="screen",
         ),
     ]
+    values = {}
     for k in range(n):
         bearing = 2.0 * math.pi * k / n
+        values[k] = {
+            **common,
+            "aircraft": k,
+            "n_aircraft": n,
+            "policy": policy,
+            "start_x": 500.0 + 250.0 * math.cos(bearing),
+            "start_y": 500.0 + 250.0 * math.sin(bearing),
+            "start_heading": bearing + math.pi / 2,
+        }
+    per_process = LaunchConfiguration("agents_per_process").perform(context)
+    for group in agent_groups(n, int(per_process) if per_process else None):
+        if len(group) > 1:
+            nodes.append(_composed(group, params, values))
+            continue
         nodes.append(
             Node(
                 package="wildfire_agent",
                 executable="agent",
                 name="agent",
-                namespace=f"uav{k}",
+                namespace=f"uav{group[0]}",
                 output="screen",
-                parameters=[
-                    params,
-                    {
-                        **common,
-                        "aircraft": k,
-                        "n_aircraft": n,
-                        "policy": policy,
-                        "start_x": 500.0 + 250.0 * math.cos(bearing),
-                        "start_y": 500.0 + 250.0 * math.sin(bearing),
-                        "start_heading": bearing + math.pi / 2,
-                    },
-                ],
+                parameters=[params, values[group[0]]],
             )
         )
     port = LaunchConfiguration("foxglove").perform(context)
@@ -104,6 +133,12 @@ def generate_launch_description() -> LaunchDescription:
                 description="rh, rh-paper, random or the path of a TorchScript .pt policy",
             ),
             DeclareLaunchArgument("seed", default_value="0", description="episode seed"),
+            DeclareLaunchArgument(
+                "agents_per_process",
+                default_value="",
+                description="agent nodes per process, at most (composed agents; empty: one per "
+                "process up to 8 aircraft, at most 8 agent processes above)",
+            ),
             DeclareLaunchArgument(
                 "foxglove",
                 default_value="",

@@ -1,21 +1,25 @@
 """Start the distributed system as OS processes, watch it, stop it, summarise it.
 
 One process per node: ``fire_simulator``, ``belief_aggregator`` and ``agent`` per aircraft
-(``/uavK``), each ``python -m <package>.<node module> --ros-args ...``. The launcher's own
+(``/uavK``), each ``python -m <package>.<node module> --ros-args ...`` — except that the agents
+may share processes, ``RunSpec.agents_per_process`` to one (composed agents,
+:mod:`wildfire_bringup.agent_processes`; by default above 8 aircraft). The launcher's own
 process spins the :class:`RunMonitorNode` and, with a record directory, the rosbag2
-:class:`BagRecorder` in one executor.
+:class:`BagRecorder` in one executor. What runs, and each command line, is
+:mod:`wildfire_bringup.run_spec`.
 
 Every child gets the run's ``ROS_DOMAIN_ID`` (a run-unique id unless the user set one) and
 the loopback-only settings of both DDS implementations (unless the user set their own, see
 :mod:`wildfire_ros.network_defaults`), so nothing leaves the machine. A child's output goes to
-``<log dir>/<node>.log``; a child is stopped with the launcher even when the launcher is
-killed. When a child dies the launcher names it, its exit status and the last line it
-wrote, finalizes the recording and stops the rest — or, with ``respawn`` in real time,
-starts it again (an agent continues from its last published state, the aggregator recovers
-the belief from the agents). Under limited radio links (``RunSpec.comm``) the aggregator is
-a ground station no decision depends on: when it dies the run flies on without it. With
-``RunSpec.foxglove_port`` a ``live_view`` node serves the run to Foxglove
-(:mod:`wildfire_bringup.live_view_node`); it reports to no one, and the run flies on if it dies.
+``<log dir>/<process>.log``; a child is stopped with the launcher even when the launcher is
+killed. When a child dies the launcher names it (every node of a composed process), its exit
+status and the last line it wrote, finalizes the recording and stops the rest — or, with
+``respawn`` in real time, starts it again (an agent continues from its last published state,
+the aggregator recovers the belief from the agents). Under limited radio links
+(``RunSpec.comm``) the aggregator is a ground station no decision depends on: when it dies the
+run flies on without it. With ``RunSpec.foxglove_port`` a ``live_view`` node serves the run to
+Foxglove (:mod:`wildfire_bringup.live_view_node`); it reports to no one, and the run flies on
+if it dies.
 
 With ``RunSpec.hosts`` the run spreads over that many virtual hosts, Linux network namespaces on
 a bridge of their own (:mod:`wildfire_testbed.hosts`): the launcher joins host 0 before its
@@ -36,85 +40,26 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from wildfire_belief.sensors import noisy, sensing_text
-from wildfire_bringup.monitor_node import REPORTER, RunMonitorNode
+from wildfire_belief.sensors import sensing_text
+from wildfire_bringup.agent_processes import describe_nodes
+from wildfire_bringup.monitor_node import RunMonitorNode
 from wildfire_bringup.partition_schedule import PartitionSchedule
+from wildfire_bringup.run_spec import LIVE_VIEW, RunSpec, node_commands, process_commands
 from wildfire_ros.network_defaults import apply_local_network_defaults
 from wildfire_testbed.hosts import VirtualHosts
-from wildfire_testbed.netfaults import NetemSpec, Partition
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
 FATAL_ON_DEATH = ("fire_simulator",)
 """Nodes that cannot be respawned: a new fire simulator would restart the truth."""
-LIVE_VIEW = "live_view"
-"""The Foxglove live view's node: an observer the run never waits for."""
 
 
 class NodeFailure(Exception):
     """A node of the system died; the message names it and why."""
-
-
-@dataclass
-class RunSpec:
-    """What ``wildfire run`` starts."""
-
-    n_aircraft: int
-    policy: str
-    """``rh``, ``random`` or a TorchScript file path."""
-    shape: str
-    wind: tuple[float, float]
-    seed: int
-    duration_s: float
-    start: np.ndarray
-    """(N, 3) start x, y, heading of every aircraft."""
-    lockstep: bool = True
-    record_dir: Path | None = None
-    respawn: bool = False
-    log_dir: Path | None = None
-    params_file: Path | None = None
-    """A ``ros__parameters`` file given to every node (before the launcher's own values)."""
-    extra_env: dict[str, str] = field(default_factory=dict)
-    agent_backend: str | None = None
-    """Runtime backend of the agent nodes (``rclpy``/``dds``) when it differs from the rest:
-    a mixed system, the two backends talking over the wire."""
-    hosts: int = 0
-    """Virtual hosts (network namespaces) to spread the nodes over; 0: this machine's network."""
-    netem: NetemSpec | None = None
-    """Delay and loss on every host's link (with ``hosts``)."""
-    partitions: tuple[Partition, ...] = ()
-    """Hosts to cut off and heal during the flight (with ``hosts``)."""
-    comm: str = "ideal"
-    """Radio links between the aircraft (``wildfire_belief.radio``); under limited links the
-    agents decide on their own replicas and the aggregator is a ground station only."""
-
-    sensor: str = "disc"
-    """The aircraft's sensor (``disc`` or ``camera``)."""
-    pixel_error: float = 0.0
-    """Probability that a report flips; with the camera or any error, a filtered belief."""
-    wind_filter: bool = False
-    """The filtered belief's process term takes a particle filter's wind estimate."""
-    foxglove_port: int | None = None
-    """Serve the run to Foxglove on this 127.0.0.1 port (the ``live_view`` node); None: not."""
-
-    @property
-    def noisy(self) -> bool:
-        return noisy(self.sensor, self.pixel_error)
-
-    @property
-    def limited_links(self) -> bool:
-        return self.comm != "ideal"
-
-    @property
-    def mode(self) -> str:
-        return "lockstep" if self.lockstep else "realtime"
 
 
 def child_environment(extra: dict[str, str] | None = None) -> dict[str, str]:
@@ -147,97 +92,6 @@ def _stop_with_parent() -> None:
     ctypes.CDLL("libc.so.6", use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM)
 
 
-def _param_args(params: dict[str, Any]) -> list[str]:
-    args: list[str] = []
-    for name, value in params.items():
-        text = (
-            repr(value)
-            if isinstance(value, float)
-            else str(value).lower()
-            if isinstance(value, bool)
-            else str(value)
-        )
-        args += ["-p", f"{name}:={text}"]
-    return args
-
-
-def node_commands(
-    spec: RunSpec, agent_states: dict[int, np.ndarray] | None = None
-) -> dict[str, list[str]]:
-    """Command line of every node, by node name (``fire_simulator``, ``uav0``, ...)."""
-    common = {"seed": spec.seed, "shape": spec.shape, "mode": spec.mode}
-    sensing = {"sensor": spec.sensor, "pixel_error": spec.pixel_error} if spec.noisy else {}
-    commands = {
-        "fire_simulator": [
-            "wildfire_sim.fire_simulator_node",
-            *_param_args(
-                {
-                    **common,
-                    "wind_x": float(spec.wind[0]),
-                    "wind_y": float(spec.wind[1]),
-                    "duration_s": float(spec.duration_s),
-                    "n_aircraft": spec.n_aircraft,
-                    "extra_reporters": REPORTER,
-                    "aggregator_reports": not spec.limited_links,
-                }
-            ),
-        ],
-        "belief_aggregator": [
-            "wildfire_belief.belief_aggregator_node",
-            *_param_args(
-                {
-                    **common,
-                    **sensing,
-                    **({"wind_filter": True} if spec.wind_filter else {}),
-                    "n_aircraft": spec.n_aircraft,
-                    "reports": not spec.limited_links,
-                }
-            ),
-        ],
-    }
-    for k in range(spec.n_aircraft):
-        x, y, heading = (float(v) for v in spec.start[k])
-        bank_steps = 0
-        if agent_states and k in agent_states:
-            x, y, heading, bank = (float(v) for v in agent_states[k])
-            bank_steps = round(bank / np.deg2rad(5.0))
-        params = {
-            "seed": spec.seed,
-            "mode": spec.mode,
-            "aircraft": k,
-            "n_aircraft": spec.n_aircraft,
-            "policy": spec.policy,
-            "start_x": x,
-            "start_y": y,
-            "start_heading": heading,
-            "start_bank_steps": bank_steps,
-        }
-        if spec.limited_links:
-            params |= {"comm": spec.comm, "shape": spec.shape}
-        params |= sensing
-        commands[f"uav{k}"] = [
-            "wildfire_agent.agent_node",
-            "--ros-args",
-            "-r",
-            f"__ns:=/uav{k}",
-            *_param_args(params),
-        ]
-    if spec.foxglove_port is not None:
-        # An observer: no reporter of the lockstep barrier, and the run flies on without it.
-        commands[LIVE_VIEW] = [
-            "wildfire_bringup.live_view_node",
-            *_param_args({"port": spec.foxglove_port, "n_aircraft": spec.n_aircraft}),
-        ]
-    for name, command in commands.items():
-        module, *rest = command
-        if rest[:1] == ["--ros-args"]:
-            rest = rest[1:]
-        if spec.params_file is not None:
-            rest = ["--params-file", str(spec.params_file), *rest]
-        commands[name] = [sys.executable, "-m", module, "--ros-args", *rest]
-    return commands
-
-
 def last_line(path: Path) -> str:
     """Last non-empty line of a log file (what a dying node said)."""
     try:
@@ -257,6 +111,8 @@ class Launcher:
         self.log_dir = spec.log_dir or Path(tempfile.mkdtemp(prefix="wildfire-run-"))
         self.log_dir.mkdir(parents=True, exist_ok=True)
         self.processes: dict[str, subprocess.Popen[bytes]] = {}
+        self.layout = spec.processes()
+        """The nodes of every process, by process name."""
         self.network = (
             VirtualHosts(spec.n_aircraft, spec.hosts, self.log_dir, spec.netem, spec.seed)
             if spec.hosts
@@ -281,11 +137,12 @@ class Launcher:
     def start_node(self, name: str, command: list[str]) -> None:
         log = open(self.log_dir / f"{name}.log", "ab")  # noqa: SIM115 (kept by the child)
         env = self.env
-        if self.spec.agent_backend is not None and name.startswith("uav"):
+        first = self.layout[name][0]  # a composed process's nodes share one host
+        if self.spec.agent_backend is not None and first.startswith("uav"):
             env = {**env, "WILDFIRE_ROS_BACKEND": self.spec.agent_backend}
         if self.network is not None:
-            env = self.network.environment(name, env)
-            command = self.network.command(name, command)
+            env = self.network.environment(first, env)
+            command = self.network.command(first, command)
         self.processes[name] = subprocess.Popen(
             command,
             env=env,
@@ -305,6 +162,7 @@ class Launcher:
                 continue
             why = last_line(self.log_dir / f"{name}.log") or "no output"
             how = f"signal {-status}" if status < 0 else f"exit status {status}"
+            nodes = self.layout[name]
             if name == LIVE_VIEW:
                 # Nothing depends on the live view: fly on without it (never respawned:
                 # a port taken stays taken).
@@ -313,14 +171,17 @@ class Launcher:
                 del self.processes[name]
                 continue
             if self.spec.respawn and not self.spec.lockstep and name not in FATAL_ON_DEATH:
-                self.respawns[name] = self.respawns.get(name, 0) + 1
-                print(f"wildfire run: node {name} died ({how}): respawning", file=sys.stderr)
-                states = None
-                if name.startswith("uav") and self.monitor is not None:
-                    k = int(name[3:])
-                    newest = self.monitor.states[k].latest()
-                    states = {k: newest[1]} if newest else None
-                self.start_node(name, node_commands(self.spec, states)[name])
+                for node in nodes:
+                    self.respawns[node] = self.respawns.get(node, 0) + 1
+                what = describe_nodes(nodes, name)
+                print(f"wildfire run: {what} died ({how}): respawning", file=sys.stderr)
+                states: dict[int, Any] = {}
+                for node in nodes:
+                    if node.startswith("uav") and self.monitor is not None:
+                        k = int(node[3:])
+                        newest = self.monitor.states[k].latest()
+                        states |= {k: newest[1]} if newest else {}
+                self.start_node(name, process_commands(self.spec, states or None)[name])
                 continue
             if self.spec.limited_links and name == "belief_aggregator":
                 # No decision depends on the ground station: fly on, scoring the union of
@@ -329,7 +190,7 @@ class Launcher:
                 self.lost[name] = f"died ({how}): {why}"
                 del self.processes[name]
                 continue
-            raise NodeFailure(f"node {name} died ({how}): {why}")
+            raise NodeFailure(f"{describe_nodes(nodes, name)} died ({how}): {why}")
 
     def _drain(self, limit_s: float, quiet_s: float = 0.5) -> None:
         """Take what is still in flight: the last belief, score and deadline messages, and the
@@ -428,7 +289,7 @@ class Launcher:
                     custom_data=sensing,
                 )
                 self.executor.add_node(self.recorder.node)
-            for name, command in node_commands(self.spec).items():
+            for name, command in process_commands(self.spec).items():
                 self.start_node(name, command)
             if self.network is not None and self.spec.partitions:
                 self.partitions = PartitionSchedule(
@@ -474,4 +335,11 @@ class Launcher:
             runtime.rclpy.try_shutdown()
 
 
-__all__ = ["Launcher", "NodeFailure", "RunSpec", "child_environment", "node_commands"]
+__all__ = [
+    "Launcher",
+    "NodeFailure",
+    "RunSpec",
+    "child_environment",
+    "node_commands",
+    "process_commands",
+]

@@ -8,6 +8,7 @@ end of the episode or on Ctrl-C (the recording is always finalized) and prints a
 ``--hosts K`` spreads the nodes over K virtual hosts (network namespaces joined by a private
 bridge, see :mod:`wildfire_testbed.hosts`), which the run creates and removes; ``--netem`` and
 ``--partition`` inject network faults there (:mod:`wildfire_testbed.netfaults`).
+``--agents-per-process K`` composes the agents K to a process (:mod:`wildfire_bringup.run_spec`).
 """
 
 from __future__ import annotations
@@ -74,6 +75,14 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         choices=("rclpy", "dds"),
         help="run the agent nodes on this ROS runtime and the rest on the default one "
         "(a mixed system: real rclpy and our Cyclone DDS layer on one wire)",
+    )
+    parser.add_argument(
+        "--agents-per-process",
+        type=positive_int,
+        metavar="K",
+        help="composed agents: at most K agent nodes per process, one executor each, spread "
+        "evenly over ceil(N/K) processes (default K = ceil(N/8): one agent per process up to 8 "
+        "aircraft, at most 8 agent processes above; with --hosts, per host)",
     )
     parser.add_argument(
         "--hosts",
@@ -283,6 +292,7 @@ def build_spec(args: argparse.Namespace) -> Any:
         pixel_error=config.pixel_error,
         wind_filter=config.wind_filter,
         foxglove_port=check_foxglove_port(args.foxglove, hosts),
+        agents_per_process=args.agents_per_process,
     )
 
 
@@ -439,6 +449,8 @@ def run(args: argparse.Namespace) -> int:
         result["respawns"] = launcher.respawns
     if launcher.lost:
         result["lost_nodes"] = launcher.lost
+    if composed := {name: list(nodes) for name, nodes in launcher.layout.items() if len(nodes) > 1}:
+        result["composed_agents"] = composed
     if spec.foxglove_port is not None:
         result["foxglove"] = f"ws://127.0.0.1:{spec.foxglove_port}"
     if network is not None:

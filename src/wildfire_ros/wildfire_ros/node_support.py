@@ -12,10 +12,14 @@ a traceback for a user mistake.
 * :func:`run_node` is the body of every ``main(args=None)``: init, build, spin until
   Ctrl-C/SIGTERM/shutdown, destroy, shut down. A start-up error of the kinds given is printed
   as one line ``<node>: error: ...`` and the process exits with status 2.
+* :func:`run_composed` does the same for several nodes of one class in one process, on one
+  executor (ROS 2 composition): each ``--node`` section of the command line is one node's own
+  ``--ros-args`` (``Node(cli_args=..., use_global_arguments=False)``, on both backends).
 """
 
 from __future__ import annotations
 
+import functools
 import signal
 import sys
 from collections.abc import Callable, Sequence
@@ -28,9 +32,13 @@ from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.stop_signals import interrupt_on_stop_signals, stopped
 
 EXIT_USER_ERROR = 2
+NODE_SECTION = "--node"
+"""Starts one node's own arguments on a composed process's command line."""
 
 #: The command line ``run_node`` initialized the runtime with (``None``: ``sys.argv``).
 _init_args: list[str] | None = None
+#: The own arguments of the composed node being built (``None``: not composed).
+_node_args: list[str] | None = None
 
 
 @dataclass(frozen=True)
@@ -113,7 +121,7 @@ def _command_line_overrides(node: Any) -> dict[str, Any]:
         return dict(overrides)
     from wildfire_ros.dds.arguments import parse_ros_arguments
 
-    args = sys.argv if _init_args is None else _init_args
+    args = _node_args if _node_args is not None else sys.argv if _init_args is None else _init_args
     return parse_ros_arguments(args).parameters_for(node.get_fully_qualified_name())
 
 
@@ -183,6 +191,72 @@ def run_node(
 
     SIGINT and SIGTERM end the node cleanly (:func:`interrupt_on_stop_signals`).
     """
+    args = list(sys.argv if args is None else args)
+    return _run_nodes([build], program, args, [args], user_errors)
+
+
+def split_node_sections(args: Sequence[str]) -> tuple[list[str], list[list[str]]]:
+    """A composed command line: (the process's own words, each ``--node`` section's)."""
+    words = list(args)
+    starts = [i for i, word in enumerate(words) if word == NODE_SECTION]
+    if not starts:
+        return words, []
+    ends = [*starts[1:], len(words)]
+    return words[: starts[0]], [words[a + 1 : b] for a, b in zip(starts, ends, strict=True)]
+
+
+def composed_node(build: Callable[..., Any], cli_args: Sequence[str]) -> Any:
+    """``build(cli_args=..., use_global_arguments=False)``: a node with its own arguments only."""
+    global _node_args
+    _node_args = list(cli_args)
+    try:
+        return build(cli_args=list(cli_args), use_global_arguments=False)
+    finally:
+        _node_args = None
+
+
+def run_composed(
+    build: Callable[..., Any],
+    program: str,
+    args: Sequence[str] | None = None,
+    user_errors: tuple[type[BaseException], ...] = (),
+) -> int:
+    """:func:`run_node` for the nodes of the ``--node`` sections of ``args`` (see
+    :func:`split_node_sections`), all built by ``build`` and spun on one executor.
+
+    The words before the first ``--node`` initialize the runtime (``--log-level``, ...);
+    parameters and remappings there would reach no node, so they are refused.
+    """
+    from wildfire_ros.dds.arguments import parse_ros_arguments
+
+    own, sections = split_node_sections(sys.argv if args is None else args)
+    try:
+        process = parse_ros_arguments(own)
+        if process.overrides or process.remaps:
+            raise ParameterError(
+                f"--ros-args before the first {NODE_SECTION}: parameters and remappings go in "
+                "a node's own section"
+            )
+        if not sections:
+            raise ParameterError(f"expected one {NODE_SECTION} --ros-args ... section per node")
+    except ParameterError as error:
+        print(f"{program}: error: {_first_line(error)}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    builds = [functools.partial(composed_node, build, section) for section in sections]
+    return _run_nodes(builds, program, own, sections, user_errors)
+
+
+def _run_nodes(
+    builds: Sequence[Callable[[], Any]],
+    program: str,
+    args: list[str],
+    node_args: Sequence[Sequence[str]],
+    user_errors: tuple[type[BaseException], ...],
+) -> int:
+    """Init the runtime with ``args``, build every node, spin them on one executor.
+
+    ``node_args`` are the command lines the nodes read (checked first, for one-line errors).
+    """
     from wildfire_ros.dds.arguments import parse_ros_arguments
     from wildfire_ros.runtime import (
         INIT_ERRORS,
@@ -196,24 +270,26 @@ def run_node(
     global _init_args
     errors: tuple[type[BaseException], ...] = (*PARAMETER_ERRORS, WildfireRosError, *user_errors)
     # rclpy reads sys.argv when args is None; the DDS backend needs them given.
-    args = list(sys.argv if args is None else args)
     _init_args = args
     interrupt_on_stop_signals()
     try:
         # Our parser first: a missing or malformed parameter file gets one line naming it on
         # both backends (rcl's own message is a multi-line parser trace).
-        parse_ros_arguments(args)
+        for words in node_args:
+            parse_ros_arguments(words)
         rclpy.init(args=args)
     except (*errors, *INIT_ERRORS) as error:
         print(f"{program}: error: {_first_line(error)}", file=sys.stderr)
         return EXIT_USER_ERROR
-    node = None
+    nodes: list[Any] = []
     status = 0
     executor = None
     try:
-        node = build()
+        for build in builds:
+            nodes.append(build())
         executor = make_executor()
-        executor.add_node(node)
+        for node in nodes:
+            executor.add_node(node)
         spin(executor)
     except errors as error:
         print(f"{program}: error: {_first_line(error)}", file=sys.stderr)
@@ -229,7 +305,7 @@ def run_node(
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
         if executor is not None:
             executor.shutdown()
-        if node is not None:
+        for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
     return status
@@ -242,10 +318,14 @@ def _first_line(error: BaseException) -> str:
 
 __all__ = [
     "EXIT_USER_ERROR",
+    "NODE_SECTION",
     "ParamSpec",
+    "composed_node",
     "contract_publisher",
     "contract_subscription",
     "declare_parameters",
     "reject_unknown_parameters",
+    "run_composed",
     "run_node",
+    "split_node_sections",
 ]

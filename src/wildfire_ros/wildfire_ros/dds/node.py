@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 from wildfire_msgs_py.errors import ParameterError, ShutdownError
 from wildfire_msgs_py.types import get_message
+from wildfire_ros.dds.arguments import parse_ros_arguments
 from wildfire_ros.dds.clock import ROSClock
 from wildfire_ros.dds.context import Context, default_context
 from wildfire_ros.dds.endpoints import Publisher, Subscription, Timer
@@ -30,6 +31,11 @@ class Node:
     Supports publishers, subscriptions (also ``raw=True``), timers on the node clock,
     declared parameters with overrides from ``--ros-args``/parameter files/``parameter_overrides``,
     ``use_sim_time`` (the clock follows ``/clock``), ``__node``/``__ns`` and topic remapping.
+
+    As in rclpy, ``cli_args`` are this node's own command line (``["--ros-args", "-r",
+    "__ns:=/uav0", "-p", "aircraft:=0"]``), applied after the process's arguments (those of
+    ``rclpy.init``), which ``use_global_arguments=False`` leaves out: several nodes of one
+    process (composition) each get their own name, namespace and parameters.
     """
 
     def __init__(
@@ -38,6 +44,7 @@ class Node:
         *,
         context: Context | None = None,
         namespace: str | None = None,
+        cli_args: Sequence[str] | None = None,
         parameter_overrides: Sequence[Parameter] | None = None,
         use_global_arguments: bool = True,
         **_ignored: Any,
@@ -45,8 +52,13 @@ class Node:
         self.context = context or default_context
         if not self.context.ok():
             raise ShutdownError("ROS is not initialized: call rclpy.init() before creating a Node")
-        arguments = self.context.arguments if use_global_arguments else None
-        remaps = arguments.remap_for(node_name) if arguments else {}
+        # rcl's order: the node's own arguments win over the process's.
+        sources = [self.context.arguments] if use_global_arguments else []
+        if cli_args:
+            sources.append(parse_ros_arguments(cli_args))
+        remaps = {
+            src: dst for arguments in sources for src, dst in arguments.remap_for(node_name).items()
+        }
         self._name = validate_node_name(remaps.pop("__node", node_name))
         self._namespace = validate_namespace(remaps.pop("__ns", namespace or "/"))
         self._topic_remaps = {
@@ -55,9 +67,12 @@ class Node:
             )
             for src, dst in remaps.items()
         }
-        self._overrides = (
-            arguments.parameters_for(self.get_fully_qualified_name()) if arguments else {}
-        )
+        fully_qualified = self.get_fully_qualified_name()
+        self._overrides = {
+            name: override
+            for arguments in sources
+            for name, override in arguments.parameters_for(fully_qualified).items()
+        }
         self._explicit_overrides = {p.name: p.value for p in parameter_overrides or ()}
         self._parameters: dict[str, Parameter] = {}
         self._descriptors: dict[str, Any] = {}

@@ -1,0 +1,199 @@
+"""What ``wildfire run`` starts (:class:`RunSpec`) and the command line of every node and
+process (:func:`node_commands`, :func:`process_commands`). No ROS here: names and words only.
+
+:func:`node_commands` gives each node the command line of a process of its own, by node name
+(``fire_simulator``, ``belief_aggregator``, ``uavK``, ``live_view``): what a parameter file is
+checked against (:mod:`wildfire_bringup.params_file`). :func:`process_commands` gives what
+the launcher starts, by process name: the same, except that composed agents share a process
+(:mod:`wildfire_bringup.agent_processes`).
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from wildfire_belief.sensors import noisy
+from wildfire_bringup.agent_processes import agent_groups, composed_commands, process_layout
+from wildfire_bringup.monitor_protocol import REPORTER
+from wildfire_testbed.hosts import place_nodes
+from wildfire_testbed.netfaults import NetemSpec, Partition
+
+LIVE_VIEW = "live_view"
+"""The Foxglove live view's node: an observer the run never waits for."""
+
+
+@dataclass
+class RunSpec:
+    """What ``wildfire run`` starts."""
+
+    n_aircraft: int
+    policy: str
+    """``rh``, ``random`` or a TorchScript file path."""
+    shape: str
+    wind: tuple[float, float]
+    seed: int
+    duration_s: float
+    start: np.ndarray
+    """(N, 3) start x, y, heading of every aircraft."""
+    lockstep: bool = True
+    record_dir: Path | None = None
+    respawn: bool = False
+    log_dir: Path | None = None
+    params_file: Path | None = None
+    """A ``ros__parameters`` file given to every node (before the launcher's own values)."""
+    extra_env: dict[str, str] = field(default_factory=dict)
+    agent_backend: str | None = None
+    """Runtime backend of the agent nodes (``rclpy``/``dds``) when it differs from the rest:
+    a mixed system, the two backends talking over the wire."""
+    hosts: int = 0
+    """Virtual hosts (network namespaces) to spread the nodes over; 0: this machine's network."""
+    netem: NetemSpec | None = None
+    """Delay and loss on every host's link (with ``hosts``)."""
+    partitions: tuple[Partition, ...] = ()
+    """Hosts to cut off and heal during the flight (with ``hosts``)."""
+    comm: str = "ideal"
+    """Radio links between the aircraft (``wildfire_belief.radio``); under limited links the
+    agents decide on their own replicas and the aggregator is a ground station only."""
+
+    sensor: str = "disc"
+    """The aircraft's sensor (``disc`` or ``camera``)."""
+    pixel_error: float = 0.0
+    """Probability that a report flips; with the camera or any error, a filtered belief."""
+    wind_filter: bool = False
+    """The filtered belief's process term takes a particle filter's wind estimate."""
+    foxglove_port: int | None = None
+    """Serve the run to Foxglove on this 127.0.0.1 port (the ``live_view`` node); None: not."""
+    agents_per_process: int | None = None
+    """Agent nodes per process, at most (composed agents); None: one per process up to 8
+    aircraft, at most 8 agent processes above (:mod:`wildfire_bringup.agent_processes`)."""
+
+    @property
+    def noisy(self) -> bool:
+        return noisy(self.sensor, self.pixel_error)
+
+    @property
+    def limited_links(self) -> bool:
+        return self.comm != "ideal"
+
+    @property
+    def mode(self) -> str:
+        return "lockstep" if self.lockstep else "realtime"
+
+    def processes(self) -> dict[str, tuple[str, ...]]:
+        """By process name (``uavK`` or ``agentsI``, the other nodes' own), its nodes."""
+        hosts = place_nodes(self.n_aircraft, self.hosts) if self.hosts else None
+        groups = agent_groups(self.n_aircraft, self.agents_per_process, hosts)
+        names = [
+            "fire_simulator",
+            "belief_aggregator",
+            *(f"uav{k}" for k in range(self.n_aircraft)),
+        ]
+        return process_layout(
+            [*names, *([LIVE_VIEW] if self.foxglove_port is not None else [])], groups
+        )
+
+
+def _param_args(params: dict[str, Any]) -> list[str]:
+    args: list[str] = []
+    for name, value in params.items():
+        text = (
+            repr(value)
+            if isinstance(value, float)
+            else str(value).lower()
+            if isinstance(value, bool)
+            else str(value)
+        )
+        args += ["-p", f"{name}:={text}"]
+    return args
+
+
+def node_commands(
+    spec: RunSpec, agent_states: dict[int, np.ndarray] | None = None
+) -> dict[str, list[str]]:
+    """Command line of every node, by node name (``fire_simulator``, ``uav0``, ...)."""
+    common = {"seed": spec.seed, "shape": spec.shape, "mode": spec.mode}
+    sensing = {"sensor": spec.sensor, "pixel_error": spec.pixel_error} if spec.noisy else {}
+    commands = {
+        "fire_simulator": [
+            "wildfire_sim.fire_simulator_node",
+            *_param_args(
+                {
+                    **common,
+                    "wind_x": float(spec.wind[0]),
+                    "wind_y": float(spec.wind[1]),
+                    "duration_s": float(spec.duration_s),
+                    "n_aircraft": spec.n_aircraft,
+                    "extra_reporters": REPORTER,
+                    "aggregator_reports": not spec.limited_links,
+                }
+            ),
+        ],
+        "belief_aggregator": [
+            "wildfire_belief.belief_aggregator_node",
+            *_param_args(
+                {
+                    **common,
+                    **sensing,
+                    **({"wind_filter": True} if spec.wind_filter else {}),
+                    "n_aircraft": spec.n_aircraft,
+                    "reports": not spec.limited_links,
+                }
+            ),
+        ],
+    }
+    for k in range(spec.n_aircraft):
+        x, y, heading = (float(v) for v in spec.start[k])
+        bank_steps = 0
+        if agent_states and k in agent_states:
+            x, y, heading, bank = (float(v) for v in agent_states[k])
+            bank_steps = round(bank / np.deg2rad(5.0))
+        params = {
+            "seed": spec.seed,
+            "mode": spec.mode,
+            "aircraft": k,
+            "n_aircraft": spec.n_aircraft,
+            "policy": spec.policy,
+            "start_x": x,
+            "start_y": y,
+            "start_heading": heading,
+            "start_bank_steps": bank_steps,
+        }
+        if spec.limited_links:
+            params |= {"comm": spec.comm, "shape": spec.shape}
+        params |= sensing
+        commands[f"uav{k}"] = [
+            "wildfire_agent.agent_node",
+            "--ros-args",
+            "-r",
+            f"__ns:=/uav{k}",
+            *_param_args(params),
+        ]
+    if spec.foxglove_port is not None:
+        # An observer: no reporter of the lockstep barrier, and the run flies on without it.
+        commands[LIVE_VIEW] = [
+            "wildfire_bringup.live_view_node",
+            *_param_args({"port": spec.foxglove_port, "n_aircraft": spec.n_aircraft}),
+        ]
+    for name, command in commands.items():
+        module, *rest = command
+        if rest[:1] == ["--ros-args"]:
+            rest = rest[1:]
+        if spec.params_file is not None:
+            rest = ["--params-file", str(spec.params_file), *rest]
+        commands[name] = [sys.executable, "-m", module, "--ros-args", *rest]
+    return commands
+
+
+def process_commands(
+    spec: RunSpec, agent_states: dict[int, np.ndarray] | None = None
+) -> dict[str, list[str]]:
+    """Command line of every process, by process name (:meth:`RunSpec.processes`)."""
+    return composed_commands(node_commands(spec, agent_states), spec.processes())
+
+
+__all__ = ["LIVE_VIEW", "RunSpec", "node_commands", "process_commands"]
