@@ -210,7 +210,8 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFi
         (["--approach", "obs", "--arch", "fast", "--run-dir", str(tmp_path / "y")], "fast"),
         (["--baseline", "nothing.json", "--run-dir", str(tmp_path / "z")], "--baseline"),
         (["--lr", "-1"], "expected a number > 0"),
-        (["--out", str(tmp_path / "no" / "p.pt"), "--run-dir", str(tmp_path / "t")], "not exist"),
+        # --out creates missing folders (as mkdir -p), but not through a file.
+        (["--out", str(tmp_path / "a_file" / "p.pt"), "--run-dir", str(tmp_path / "t")], "cannot create"),
         (
             [
                 "--approach",
@@ -254,6 +255,7 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFi
             "no such file",
         ),
     ]
+    (tmp_path / "a_file").write_text("not a folder")
     (tmp_path / "corrupt").mkdir()
     (tmp_path / "corrupt" / CHECKPOINT_FILE).write_bytes(b"\x00garbage")
     cases.append((["--resume", "--run-dir", str(tmp_path / "corrupt")], "unreadable"))
