@@ -211,7 +211,10 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFi
         (["--baseline", "nothing.json", "--run-dir", str(tmp_path / "z")], "--baseline"),
         (["--lr", "-1"], "expected a number > 0"),
         # --out creates missing folders (as mkdir -p), but not through a file.
-        (["--out", str(tmp_path / "a_file" / "p.pt"), "--run-dir", str(tmp_path / "t")], "cannot create"),
+        (
+            ["--out", str(tmp_path / "a_file" / "p.pt"), "--run-dir", str(tmp_path / "t")],
+            "cannot create",
+        ),
         (
             [
                 "--approach",
