@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from dataclasses import asdict, fields
 from pathlib import Path
 
@@ -16,7 +18,12 @@ from wildfire_sim.episode import (
     FireEpisode,
     decisions_in,
     fire_at_border,
+    initial_fire,
 )
+from wildfire_sim.fire import BatchedFire, FireParams
+from wildfire_sim.grid import MapGeometry
+from wildfire_sim.ignition import ignite
+from wildfire_sim.shapes import Shape, shape_masks
 from wildfire_world.env import EnvConfig, WildfireVecEnv
 
 REPO = Path(__file__).resolve().parents[1]
@@ -95,3 +102,40 @@ def test_config_files_agree_with_the_episode_defaults() -> None:
                     checked.add(key)
     # The fire simulator's episode parameters are all in the shipped file.
     assert checked >= {f.name for f in fields(EpisodeDefaults)} - {"max_wind"}
+
+
+@pytest.mark.parametrize("geometry", [MapGeometry(), MapGeometry(120, 160)])
+def test_the_ignition_without_a_fire_is_the_fires_start(geometry: MapGeometry) -> None:
+    # The aggregator, the monitor and the agents' replicas start from `ignite` (no torch); the
+    # fire simulator from a stepped BatchedFire: they must start from the same fire.
+    for shape in Shape:
+        for seed in (0, 7, 2_000_003):
+            fire = initial_fire(seed, shape, (0.3, -0.2), geometry)
+            ignition = ignite(seed, shape, geometry)
+            np.testing.assert_array_equal(ignition.burning, fire.burning[0])
+            np.testing.assert_array_equal(ignition.fuel, fire.initial_fuel[0])
+            assert ignition.burning.any()
+    # Ignition cells without fuel do not burn, on either path.
+    params = FireParams(fuel_min=0, fuel_max=1)
+    fire = BatchedFire(1, params, geometry)
+    masks = shape_masks(Shape.CIRCULAR, geometry)
+    fire.reset([0], [3], masks.ignition, masks.fuel, np.zeros(2))
+    ignition = ignite(3, Shape.CIRCULAR, geometry, params)
+    np.testing.assert_array_equal(ignition.burning, fire.burning[0])
+    assert ignition.burning.sum() < masks.ignition.sum()
+
+
+def test_processes_that_only_start_a_fire_do_not_load_torch() -> None:
+    # About 1.5 s of CPU per process: the launcher, the aggregator and the agents' radio.
+    script = (
+        "import sys\n"
+        "import wildfire_world.config, wildfire_belief.filtered_aggregator\n"
+        "import wildfire_bringup.monitor_protocol, wildfire_agent.agent_parameters\n"
+        "from wildfire_sim.ignition import ignite\n"
+        "ignite(5, 't')\n"
+        "assert 'torch' not in sys.modules, 'torch was loaded'\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr

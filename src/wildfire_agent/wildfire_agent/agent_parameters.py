@@ -26,7 +26,8 @@ from wildfire_belief.radio import CommError, CommModel
 from wildfire_belief.sensors import SENSORS
 from wildfire_msgs_py.contract import AIRCRAFT_PREFIX
 from wildfire_ros.node_support import ParamSpec
-from wildfire_sim.episode import EPISODE_DEFAULTS, MODES, Mode, initial_fire
+from wildfire_sim.episode import EPISODE_DEFAULTS, MODES, Mode
+from wildfire_sim.ignition import ignite
 from wildfire_sim.shapes import Shape
 
 PARAMETERS = (
@@ -98,7 +99,7 @@ def agent_protocol(p: Mapping[str, Any], now_ns: Callable[[], int]) -> AgentProt
         raise AgentConfigError(str(error)) from None
     radio = None
     if not comm.ideal:
-        ignition = initial_fire(p["seed"], p["shape"]).burning[0]
+        ignition = ignite(p["seed"], p["shape"]).burning
         radio = AircraftRadio(comm, k, n, p["seed"], ignition)
     sensor = AircraftSensor(p["sensor"], p["pixel_error"], p["seed"], k)
     name_tag = f"{AIRCRAFT_PREFIX}{k}"

@@ -17,7 +17,8 @@ from wildfire_belief.aggregator_protocol import AggregatorProtocol
 from wildfire_belief.filtered_aggregator import FilteredAggregator
 from wildfire_belief.sensors import SENSORS, check_sensing, noisy, sensors_of
 from wildfire_ros.node_support import ParamSpec
-from wildfire_sim.episode import EPISODE_DEFAULTS, MODES, Mode, initial_fire
+from wildfire_sim.episode import EPISODE_DEFAULTS, MODES, Mode
+from wildfire_sim.ignition import ignite
 from wildfire_sim.shapes import Shape
 
 PARAMETERS = (
@@ -74,7 +75,7 @@ def aggregator_protocol(p: Mapping[str, Any], now_ns: Callable[[], int]) -> Aggr
     return AggregatorProtocol(
         p["n_aircraft"],
         Mode(p["mode"]),
-        initial_fire(p["seed"], p["shape"]).burning[0],
+        ignite(p["seed"], p["shape"]).burning,
         now_ns,
         p["recover_timeout_s"],
         reports=p["reports"],

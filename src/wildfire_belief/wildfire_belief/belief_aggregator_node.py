@@ -4,7 +4,7 @@ Subscribes to ``/uavK/visit`` of every aircraft and the episode status; publishe
 ``/wildfire/belief``, ``/wildfire/belief_age`` (display, 0..100), ``/wildfire/belief_age_exact``
 (float32 seconds, what belief policies see) and the cumulative ``/wildfire/score``, all
 latched. The merge is :class:`wildfire_belief.aggregator.BeliefAggregator`; the belief starts
-as the ignition seed (``wildfire_sim.episode.initial_fire`` of the episode seed and shape).
+as the ignition seed (``wildfire_sim.ignition.ignite`` of the episode seed and shape).
 
 The node only decodes, calls and encodes: the lockstep barrier (merge tick ``k`` once every
 aircraft's visit of ``k`` is in), the real-time merges and the recovery of a restarted

@@ -29,8 +29,9 @@ from wildfire_belief.aggregator import Window
 from wildfire_belief.belief import TICKS_PER_S
 from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_belief.wind_filter import WindFilter, team_wind_filter
-from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, EPISODE_DEFAULTS, initial_fire
+from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, EPISODE_DEFAULTS
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
+from wildfire_sim.ignition import ignite
 from wildfire_sim.shapes import Shape, shape_masks
 
 
@@ -89,7 +90,7 @@ class FilteredAggregator:
         wind_filter: bool = False,
     ) -> None:
         masks = shape_masks(Shape.parse(str(shape)))
-        ignition = initial_fire(seed, shape).burning[0]
+        ignition = ignite(seed, shape).burning
         self.belief = LogOddsBelief(1, pixel_error)
         # The published grid's compiled rounding (numba), loaded now, not in the first
         # real-time tick.

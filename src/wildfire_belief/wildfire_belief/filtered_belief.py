@@ -119,15 +119,12 @@ true wind (see that module).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from wildfire_belief.report_clock import ReportClock, as_ids
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
-
-if TYPE_CHECKING:
-    from wildfire_sim.fire import FireParams
+from wildfire_sim.spread import MAX_SPREAD_PROBABILITY, FireParams, spread_kernel
 
 PIXEL_ERROR = 0.1
 """Default report flip probability p (the cameras' ``wildfire_agent.camera.PIXEL_ERROR``)."""
@@ -161,13 +158,9 @@ def log_survival_kernel(wind: np.ndarray, params: FireParams | None = None) -> n
     -------
     (..., 5, 5) float64
         Entry ``[i, j]`` belongs to a source at row offset ``i - 2`` and column offset
-        ``j - 2`` from the target, as in :func:`wildfire_sim.fire.spread_kernel` (whose P is
+        ``j - 2`` from the target, as in :func:`wildfire_sim.spread.spread_kernel` (whose P is
         capped at the fire's ``MAX_SPREAD_PROBABILITY`` here too).
     """
-    # The fire module loads torch: import it when a kernel is built, not when this module is
-    # imported (as wildfire_sim.episode does for the code that needs no fire).
-    from wildfire_sim.fire import MAX_SPREAD_PROBABILITY, FireParams, spread_kernel
-
     constant = (params or FireParams()).spread_constant
     probability = np.minimum(spread_kernel(wind, constant), MAX_SPREAD_PROBABILITY)
     return -np.log1p(-probability)
@@ -270,8 +263,6 @@ class LogOddsBelief(ReportClock):
         self.spread_scale = float(spread_scale)
         if not 0.0 <= p < 0.5:
             raise ValueError(f"p: expected 0 <= p < 0.5, got {p}")
-        from wildfire_sim.fire import FireParams
-
         self.params = (params or FireParams()).validate()
         self.p = float(p)
         self.report_log_odds = math.inf if p == 0.0 else math.log((1.0 - p) / p)

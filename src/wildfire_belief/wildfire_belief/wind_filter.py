@@ -97,7 +97,6 @@ pays it for every environment.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -105,9 +104,7 @@ from wildfire_belief.filtered_belief import PIXEL_ERROR, LogOddsBelief
 from wildfire_sim.defaults import EPISODE_DEFAULTS
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.seeding import Stream, generator
-
-if TYPE_CHECKING:
-    from wildfire_sim.fire import FireParams
+from wildfire_sim.spread import FireParams
 
 NUM_PARTICLES = 40
 """Default number of particles (fire models)."""

@@ -46,8 +46,8 @@ from wildfire_sim.episode import (
     DECISIONS_PER_FIRE_STEP,
     EPISODE_DEFAULTS,
     fire_step_tick,
-    initial_fire,
 )
+from wildfire_sim.ignition import ignite
 
 REPORTER = "wildfire_run"
 """The monitor's name as a lockstep reporter (on ``/wildfire/ack``)."""
@@ -102,7 +102,7 @@ class RunMonitor:
                 seed, shape, pixel_error, preburn_steps, wind_filter
             )
         elif union_score:
-            self.union = BeliefAggregator(initial_fire(seed, shape).burning[0])
+            self.union = BeliefAggregator(ignite(seed, shape).burning)
         if union_score:
             self.visits = [TickInbox(TICK_NS) for _ in range(n_aircraft * self.sources)]
         self.deadlines: dict[int, dict[str, float]] = {}

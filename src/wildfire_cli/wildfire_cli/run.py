@@ -243,7 +243,7 @@ def build_spec(args: argparse.Namespace) -> Any:
     from wildfire_bringup.launcher import RunSpec
     from wildfire_cli.run_params import check_params_file
     from wildfire_sim.shapes import Shape
-    from wildfire_world.env import EnvConfig, draw_scenario
+    from wildfire_world.config import EnvConfig, draw_scenario
 
     hosts = check_hosts(args.hosts, args.aircraft)
     netem, partitions = check_faults(args, hosts)
@@ -299,7 +299,7 @@ def build_spec(args: argparse.Namespace) -> Any:
 def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> dict[str, Any]:
     """Summary metrics of a finished run (score, ceiling and trajectory-derived metrics)."""
     from wildfire_belief.belief import belief_iou, mean_age_at_burning, score_ceiling
-    from wildfire_sim.episode import initial_fire
+    from wildfire_sim.ignition import ignite
 
     trajectory = monitor.trajectory()
     status = monitor.status
@@ -378,7 +378,7 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         decided = sum(v.get("decisions", 0) for v in monitor.deadlines.values())
         missed = sum(v.get("missed", 0) for v in monitor.deadlines.values())
         result["missed_deadline_fraction"] = missed / decided if decided else 0.0
-    ignition = initial_fire(spec.seed, spec.shape, spec.wind)
+    ignition = ignite(spec.seed, spec.shape)
     if monitor.burned is not None:
         # The belief starts as the ignition seed (docs/model.md, Shared belief), as in the
         # aggregator.
@@ -389,7 +389,7 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         result["score_ceiling"] = int(ceiling)
         result["ceiling_fraction"] = result["score"] / max(int(ceiling), 1)
     if monitor.fuel is not None:
-        initial = ignition.initial_fuel[0]
+        initial = ignition.fuel
         result["_affected"] = (monitor.fuel < initial) | (
             monitor.fire if monitor.fire is not None else False
         )

@@ -20,11 +20,11 @@ from wildfire_agent.rewards import ObservationRewardWeights
 from wildfire_belief import sensors
 from wildfire_belief.radio import IDEAL, CommModel
 from wildfire_sim.episode import EPISODE_DEFAULTS, decisions_in
-from wildfire_sim.fire import FireParams
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.landscape import Landscape
 from wildfire_sim.seeding import Stream, generator
 from wildfire_sim.shapes import Shape, ShapeMasks, start_centres_m
+from wildfire_sim.spread import FireParams
 from wildfire_world.errors import WorldError
 
 OBSERVATION_KINDS = (*APPROACHES, "none")
