@@ -59,9 +59,7 @@ def ignite(
 ) -> Ignition:
     """Episode ``seed``'s fire of ``shape`` at ignition, as
     :func:`wildfire_sim.episode.initial_fire` starts it (the wind does not enter)."""
-    masks = shape_masks(
-        Shape.parse(str(shape.value if isinstance(shape, Shape) else shape)), geometry
-    )
+    masks = shape_masks(Shape.parse(str(shape)), geometry)  # str of a Shape is its value
     rng = generator(int(seed), Stream.FIRE)
     fuel = draw_fuel(rng, geometry.shape, masks.fuel, params or FireParams())
     return Ignition(first_burning(masks.ignition, fuel), fuel)
