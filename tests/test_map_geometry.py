@@ -117,7 +117,7 @@ def _wildfire(*args: str) -> subprocess.CompletedProcess[str]:
 
 
 @pytest.mark.slow
-def test_cli_map_size_flies_in_eval_and_bad_sizes_get_one_line() -> None:
+def test_cli_map_size_flies_in_eval_and_bad_sizes_get_one_line(tmp_path: Path) -> None:
     done = _wildfire(
         "eval", "--policy", "rh", "--map-size", "200,300", "--aircraft", "4",
         "--episodes", "1", "--duration", "10", "--json",
@@ -127,9 +127,14 @@ def test_cli_map_size_flies_in_eval_and_bad_sizes_get_one_line() -> None:
     bad = _wildfire("eval", "--map-size", "49,100")
     assert bad.returncode == 2
     assert bad.stderr.count("\n") == 1 and "--map-size" in bad.stderr, bad.stderr
-    refused = _wildfire("run", "--map-size", "200,200", "--duration", "1")
+    # The distributed system flies the map and seeded ignitions, not yet a user's raster.
+    ignition = tmp_path / "ignition.npy"
+    np.save(ignition, np.pad(np.ones((5, 5), dtype=np.uint8), (47, 48)))
+    refused = _wildfire("run", "--ignition-map", str(ignition), "--duration", "1")
     assert refused.returncode == 2
-    assert refused.stderr.count("\n") == 1 and "tiles" in refused.stderr, refused.stderr
+    assert refused.stderr.count("\n") == 1 and "rasters fly in eval" in refused.stderr, (
+        refused.stderr
+    )
 
 
 def test_ego_images_read_a_window_equal_to_the_whole_map() -> None:

@@ -57,6 +57,7 @@ from wildfire_ros.node_support import (
     run_node,
 )
 from wildfire_ros.runtime import Node
+from wildfire_sim.ground_parameters import ground_of
 
 
 class AgentNode(Node):
@@ -90,29 +91,21 @@ class AgentNode(Node):
         # Deep reader histories on the inputs lockstep waits for: a flood on a keyless topic
         # must not push the honest sample out of the queue before the executor takes it.
         deep = contract.QosSpec(depth=100, transient_local=True)
+        geo = ground_of(p).geometry  # every map on the wire has the run's geometry
+        inputs = [
+            (contract.FIRE_MAP, lambda m: protocol.on_fire_map(*checked_fire_grid(m, geo))),
+            (contract.EPISODE, lambda m: protocol.on_status(checked_episode(m, self.seed))),
+        ]
+        if protocol.keeps_belief:
+            inputs += [
+                (contract.BELIEF, lambda m: protocol.on_belief(*checked_belief_grid(m, geo))),
+                (contract.BELIEF_AGE_EXACT, lambda m: protocol.on_ages(*checked_age_image(m, geo))),
+            ]
         subscriptions: list[tuple[contract.TopicSpec, Any, Any, int | None]] = [
-            (contract.FIRE_MAP, lambda m: protocol.on_fire_map(*checked_fire_grid(m)), deep, None),
-            (
-                contract.EPISODE,
-                lambda m: protocol.on_status(checked_episode(m, self.seed)),
-                deep,
-                None,
-            ),
+            (spec, handle, deep, None) for spec, handle in inputs
         ]
         if protocol.keeps_belief:
             subscriptions += [
-                (
-                    contract.BELIEF,
-                    lambda m: protocol.on_belief(*checked_belief_grid(m)),
-                    deep,
-                    None,
-                ),
-                (
-                    contract.BELIEF_AGE_EXACT,
-                    lambda m: protocol.on_ages(*checked_age_image(m)),
-                    deep,
-                    None,
-                ),
                 (contract.SCORE, lambda m: protocol.on_score(checked_score(m)), None, None),
                 (contract.BELIEF_REQUEST, self.belief_request_callback, None, None),
             ]

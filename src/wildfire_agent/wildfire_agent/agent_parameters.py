@@ -27,6 +27,7 @@ from wildfire_belief.sensors import SENSORS
 from wildfire_msgs_py.contract import AIRCRAFT_PREFIX
 from wildfire_ros.node_support import ParamSpec
 from wildfire_sim.episode import EPISODE_DEFAULTS, MODES, Mode
+from wildfire_sim.ground_parameters import GROUND_PARAMETERS, ground_of
 from wildfire_sim.ignition import ignite
 from wildfire_sim.shapes import Shape
 
@@ -37,8 +38,8 @@ PARAMETERS = (
     ParamSpec(
         "seed", EPISODE_DEFAULTS.seed, "episode seed (the aircraft's random stream)", 0, 2**31 - 1
     ),
-    ParamSpec("start_x", 500.0, "start position east, m", -10_000.0, 11_000.0),
-    ParamSpec("start_y", 500.0, "start position north, m", -10_000.0, 11_000.0),
+    ParamSpec("start_x", 500.0, "start position east, m", -10_000.0, 30_000.0),
+    ParamSpec("start_y", 500.0, "start position north, m", -10_000.0, 30_000.0),
     ParamSpec("start_heading", 0.0, "start heading, rad counter-clockwise from east", -7.0, 7.0),
     ParamSpec("start_bank_steps", 0, "start bank in 5 degree steps", -10, 10),
     ParamSpec("mode", "lockstep", "lockstep (sim time) or realtime", choices=MODES),
@@ -72,6 +73,7 @@ PARAMETERS = (
         "ignition shape (the replica's start under limited links)",
         choices=tuple(s.value for s in Shape),
     ),
+    *GROUND_PARAMETERS,
 )
 
 
@@ -99,7 +101,8 @@ def agent_protocol(p: Mapping[str, Any], now_ns: Callable[[], int]) -> AgentProt
         raise AgentConfigError(str(error)) from None
     radio = None
     if not comm.ideal:
-        ignition = ignite(p["seed"], p["shape"]).burning
+        ground = ground_of(p)
+        ignition = ignite(p["seed"], p["shape"], ground, border_cells=p["border_cells"]).burning
         radio = AircraftRadio(comm, k, n, p["seed"], ignition)
     sensor = AircraftSensor(p["sensor"], p["pixel_error"], p["seed"], k)
     name_tag = f"{AIRCRAFT_PREFIX}{k}"

@@ -275,7 +275,8 @@ class AgentProtocol:
         """Peer ``j``'s radio message (its window checked against its pose here)."""
         inbox = self.radio_inbox[j]
         inbox.ceiling = self.ahead_limit_ns()
-        inbox.accept(stamp, (message, window_of(message)))
+        assert self.radio is not None  # radio messages are subscribed to under limited links
+        inbox.accept(stamp, (message, window_of(message, self.radio.geometry)))
         return self.advance()
 
     def on_belief(self, stamp: int, probability: np.ndarray) -> list[Output]:

@@ -40,7 +40,7 @@ from wildfire_msgs_py.radio_codec import (
     pack_burning,
     radio_to_bytes,
 )
-from wildfire_sim.grid import PAPER_MAP, MapGeometry
+from wildfire_sim.grid import PAPER_MAP, MapGeometry, geometry_of
 
 
 def window_of(message: RadioMessage, geometry: MapGeometry = PAPER_MAP) -> VisitWindow:
@@ -125,7 +125,8 @@ class AircraftRadio:
         self.model = model
         self.k = k
         self.seed = seed
-        self.replica = BeliefReplicas(1, 1)
+        self.geometry = geometry_of(np.asarray(ignition))
+        self.replica = BeliefReplicas(1, 1, self.geometry)
         self.replica.reset([0], np.asarray(ignition, bool)[None])
         self.heard = HeardPoses(1, 1, n)
         self.draws = LinkDraws(1, n)
@@ -210,7 +211,7 @@ class AircraftRadio:
             self.heard.hear(zero, zero, sender, np.array([message.tick]), pose)
 
     def _merge(self, window: VisitWindow, tick: int, aircraft: int) -> None:
-        cell, burning = window_cells(window)
+        cell, burning = window_cells(window, self.geometry)
         zero = np.zeros(cell.size, dtype=np.int64)
         self.replica.merge(zero, zero, cell, np.full(cell.size, visit_key(tick, aircraft)), burning)
 

@@ -18,6 +18,7 @@ from wildfire_agent.errors import AgentConfigError
 from wildfire_belief import sensors
 from wildfire_belief.visits import visit_windows, window_values
 from wildfire_msgs_py.codecs import VisitWindow
+from wildfire_sim.grid import geometry_of
 from wildfire_sim.seeding import Stream, generator
 
 
@@ -32,7 +33,7 @@ def check_sensing(sensor: str, pixel_error: float) -> None:
 def visit_window(state: AircraftState, burning: np.ndarray) -> VisitWindow:
     """The perfect disc: the cells the aircraft at ``state`` (fields (1,)) visits, with their
     true fire state in the (H, W) ``burning``."""
-    windows = visit_windows(state.x_m[None], state.y_m[None])
+    windows = visit_windows(state.x_m[None], state.y_m[None], geometry_of(burning))
     truth = window_values(burning[None], windows)[0, 0].astype(bool)
     return VisitWindow(
         int(windows.row0[0, 0]), int(windows.col0[0, 0]), windows.visited[0, 0], truth
@@ -64,13 +65,14 @@ class AircraftSensor:
         """
         if self.rng is None:
             return (visit_window(state, burning),)
-        x, y = state.x_m[None], state.y_m[None]
+        x, y, geometry = state.x_m[None], state.y_m[None], geometry_of(burning)
         if self.sensor == "camera":
-            cameras = camera.camera_windows(x, y, state.heading_rad[None], state.bank_steps[None])
+            heading, bank = state.heading_rad[None], state.bank_steps[None]
+            cameras = camera.camera_windows(x, y, heading, bank, geometry=geometry)
             truth = camera.window_values(burning[None], cameras)
             row0, col0, seen = cameras.row0, cameras.col0, cameras.seen
         else:
-            disc = visit_windows(x, y)
+            disc = visit_windows(x, y, geometry)
             truth = window_values(burning[None], disc)
             row0, col0, seen = disc.row0, disc.col0, disc.visited[:, :, None]
         reports = camera.noisy_reports(truth, seen, [self.rng], self.pixel_error)[0, 0]

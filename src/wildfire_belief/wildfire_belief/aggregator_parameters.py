@@ -18,6 +18,7 @@ from wildfire_belief.filtered_aggregator import FilteredAggregator
 from wildfire_belief.sensors import SENSORS, check_sensing, noisy, sensors_of
 from wildfire_ros.node_support import ParamSpec
 from wildfire_sim.episode import EPISODE_DEFAULTS, MODES, Mode
+from wildfire_sim.ground_parameters import GROUND_PARAMETERS, ground_of
 from wildfire_sim.ignition import ignite
 from wildfire_sim.shapes import Shape
 
@@ -59,6 +60,7 @@ PARAMETERS = (
         "acknowledge lockstep ticks (false when the agents decide on their own replicas and "
         "the fire simulator does not wait for the aggregator)",
     ),
+    *GROUND_PARAMETERS,
 )
 
 
@@ -67,15 +69,16 @@ def aggregator_protocol(p: Mapping[str, Any], now_ns: Callable[[], int]) -> Aggr
     ``now_ns`` is the node clock."""
     sensor, pixel_error = p["sensor"], p["pixel_error"]
     check_sensing(sensor, pixel_error, p["wind_filter"])
+    ground, border = ground_of(p), p["border_cells"]
     filtered = None
     if noisy(sensor, pixel_error):
         filtered = FilteredAggregator(
-            p["seed"], p["shape"], pixel_error, p["preburn_steps"], p["wind_filter"]
+            p["seed"], p["shape"], pixel_error, p["preburn_steps"], p["wind_filter"], ground, border
         )
     return AggregatorProtocol(
         p["n_aircraft"],
         Mode(p["mode"]),
-        ignite(p["seed"], p["shape"]).burning,
+        ignite(p["seed"], p["shape"], ground, border_cells=border).burning,
         now_ns,
         p["recover_timeout_s"],
         reports=p["reports"],

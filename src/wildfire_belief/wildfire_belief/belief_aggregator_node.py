@@ -65,6 +65,7 @@ from wildfire_sim.episode import (
     Mode,
 )
 from wildfire_sim.errors import FireConfigError
+from wildfire_sim.ground_parameters import ground_of
 
 
 class BeliefAggregatorNode(Node):
@@ -75,6 +76,7 @@ class BeliefAggregatorNode(Node):
         p = declare_parameters(self, PARAMETERS)
         self.n: int = p["n_aircraft"]
         self.seed: int = p["seed"]
+        self.geometry = geometry = ground_of(p).geometry
         self.protocol = protocol = aggregator_protocol(
             p, lambda: self.get_clock().now().nanoseconds
         )
@@ -108,7 +110,7 @@ class BeliefAggregatorNode(Node):
             contract_subscription(
                 self,
                 contract.FIRE_MAP,
-                lambda msg: self.publish(protocol.on_fire_map(*checked_fire_grid(msg))),
+                lambda msg: self.publish(protocol.on_fire_map(*checked_fire_grid(msg, geometry))),
                 qos=latched,
                 guard=self.input_guard,
             )
@@ -122,7 +124,7 @@ class BeliefAggregatorNode(Node):
         contract_subscription(
             self,
             contract.BELIEF_SNAPSHOT,
-            lambda msg: protocol.on_snapshot(checked_snapshot(msg)),
+            lambda msg: protocol.on_snapshot(checked_snapshot(msg, geometry)),
             qos=latched,
             guard=self.input_guard,
         )
@@ -150,7 +152,9 @@ class BeliefAggregatorNode(Node):
             self.get_logger().info(f"started: merging {topics}")
 
     def visit_callback(self, source: int, msg: Any) -> None:
-        self.publish(self.protocol.on_visit(source, *checked_visit(msg, self.window_side)))
+        self.publish(
+            self.protocol.on_visit(source, *checked_visit(msg, self.window_side, self.geometry))
+        )
 
     def publish(self, outputs: list[Output]) -> None:
         """Encode and publish the protocol's outputs, in their order."""

@@ -32,7 +32,8 @@ from wildfire_belief.wind_filter import WindFilter, team_wind_filter
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP, EPISODE_DEFAULTS
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.ignition import ignite
-from wildfire_sim.shapes import Shape, shape_masks
+from wildfire_sim.landscape import PAPER_LANDSCAPE, Landscape
+from wildfire_sim.shapes import Shape
 
 
 def score_decision(
@@ -88,10 +89,12 @@ class FilteredAggregator:
         pixel_error: float,
         preburn_steps: int = EPISODE_DEFAULTS.preburn_steps,
         wind_filter: bool = False,
+        ground: Landscape = PAPER_LANDSCAPE,
+        border_cells: int = EPISODE_DEFAULTS.border_cells,
     ) -> None:
-        masks = shape_masks(Shape.parse(str(shape)))
-        ignition = ignite(seed, shape).burning
-        self.belief = LogOddsBelief(1, pixel_error)
+        masks = ground.start(Shape.parse(str(shape)), seed, border_cells)
+        ignition = ignite(seed, shape, ground, border_cells=border_cells).burning
+        self.belief = LogOddsBelief(1, pixel_error, geometry=ground.geometry)
         # The published grid's compiled rounding (numba), loaded now, not in the first
         # real-time tick.
         from wildfire_msgs_py.percent_kernels import compile_kernels

@@ -102,7 +102,7 @@ import numpy as np
 
 from wildfire_belief.filtered_belief import PIXEL_ERROR, LogOddsBelief
 from wildfire_sim.defaults import EPISODE_DEFAULTS
-from wildfire_sim.grid import PAPER_MAP, MapGeometry
+from wildfire_sim.grid import PAPER_MAP, MapGeometry, geometry_of
 from wildfire_sim.seeding import Stream, generator
 from wildfire_sim.spread import FireParams
 
@@ -276,7 +276,8 @@ def team_wind_filter(
     """The wind filter of episode ``seed``'s team: ``NUM_PARTICLES`` fire models drawn from
     the episode's own stream (``Stream.WIND``), started from its ignition seed over the
     pre-burn. The environment and the belief aggregator start theirs here alike."""
-    particles = WindFilter(NUM_PARTICLES, generator(seed, Stream.WIND), p)
+    rng = generator(seed, Stream.WIND)
+    particles = WindFilter(NUM_PARTICLES, rng, p, geometry=geometry_of(ignition))
     particles.reset(ignition, fuel_mask, preburn_steps)
     return particles
 

@@ -272,6 +272,7 @@ class Launcher:
                 sensor=self.spec.sensor,
                 pixel_error=self.spec.pixel_error,
                 wind_filter=self.spec.wind_filter,
+                ground=self.spec.ground,
             )
             self.executor.add_node(self.monitor)
             if self.spec.record_dir is not None:

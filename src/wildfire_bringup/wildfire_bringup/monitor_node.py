@@ -50,6 +50,7 @@ from wildfire_msgs_py.wire_checks import (
 from wildfire_ros.node_support import contract_publisher, contract_subscription
 from wildfire_ros.runtime import Node, get_message, qos_profile
 from wildfire_sim.episode import EPISODE_DEFAULTS
+from wildfire_sim.landscape import PAPER_LANDSCAPE, Landscape
 
 
 class RunMonitorNode(Node, RunMonitor):
@@ -67,13 +68,16 @@ class RunMonitorNode(Node, RunMonitor):
         pixel_error: float = 0.0,
         preburn_steps: int = EPISODE_DEFAULTS.preburn_steps,
         wind_filter: bool = False,
+        ground: Landscape = PAPER_LANDSCAPE,
+        border_cells: int = EPISODE_DEFAULTS.border_cells,
     ) -> None:
         Node.__init__(self, REPORTER)
         guard = InputGuard(self.get_logger().warning)
         RunMonitor.__init__(
             self, n_aircraft, lockstep, seed, guard, union_score, shape, sensor, pixel_error,
-            preburn_steps, wind_filter,
+            preburn_steps, wind_filter, ground, border_cells,
         )  # fmt: skip
+        geometry = self.geometry
         self.ack_pub = contract_publisher(self, contract.ACK)
 
         def subscribe(spec: contract.TopicSpec, handle: Any, aircraft: int | None = None) -> None:
@@ -83,10 +87,12 @@ class RunMonitorNode(Node, RunMonitor):
             contract_subscription(self, spec, callback, aircraft=aircraft, qos=qos, guard=guard)
 
         subscribe(contract.EPISODE, lambda m: self.on_episode(checked_episode(m, self.seed)))
-        subscribe(contract.FIRE_MAP, lambda m: self.on_fire_map(*checked_fire_grid(m)))
+        subscribe(contract.FIRE_MAP, lambda m: self.on_fire_map(*checked_fire_grid(m, geometry)))
         subscribe(contract.FUEL_MAP, lambda m: self.on_fuel_map(fuel_grid_from_msg(m)))
-        subscribe(contract.BELIEF, lambda m: self.on_belief(*checked_belief_grid(m)))
-        subscribe(contract.BELIEF_AGE_EXACT, lambda m: self.on_ages(checked_age_image(m)[1]))
+        subscribe(contract.BELIEF, lambda m: self.on_belief(*checked_belief_grid(m, geometry)))
+        subscribe(
+            contract.BELIEF_AGE_EXACT, lambda m: self.on_ages(checked_age_image(m, geometry)[1])
+        )
         subscribe(contract.SCORE, lambda m: self.on_score(checked_score(m)))
         for k in range(n_aircraft):
             subscribe(contract.STATE_STAMPED, functools.partial(self.state_callback, k), k)
@@ -118,7 +124,7 @@ class RunMonitorNode(Node, RunMonitor):
         self.on_radio(k, len(data))
 
     def visit_callback(self, source: int, msg: Any) -> list[int]:
-        return self.on_visit(source, *checked_visit(msg, self.report_side))
+        return self.on_visit(source, *checked_visit(msg, self.report_side, self.geometry))
 
 
 __all__ = ["REPORTER", "RunMonitorNode"]

@@ -48,6 +48,7 @@ from wildfire_sim.episode import (
     fire_step_tick,
 )
 from wildfire_sim.ignition import ignite
+from wildfire_sim.landscape import PAPER_LANDSCAPE, Landscape
 
 REPORTER = "wildfire_run"
 """The monitor's name as a lockstep reporter (on ``/wildfire/ack``)."""
@@ -71,8 +72,11 @@ class RunMonitor:
         pixel_error: float = 0.0,
         preburn_steps: int = EPISODE_DEFAULTS.preburn_steps,
         wind_filter: bool = False,
+        ground: Landscape = PAPER_LANDSCAPE,
+        border_cells: int = EPISODE_DEFAULTS.border_cells,
     ) -> None:
         self.seed = seed
+        self.geometry = ground.geometry
         self.n = n_aircraft
         self.lockstep = lockstep
         self.input_guard = guard
@@ -99,10 +103,11 @@ class RunMonitor:
         """Fire maps by stamp: the truth the score under noise needs at each tick."""
         if union_score and noisy(sensor, pixel_error):
             self.union = self.filtered = FilteredAggregator(
-                seed, shape, pixel_error, preburn_steps, wind_filter
+                seed, shape, pixel_error, preburn_steps, wind_filter, ground, border_cells
             )
         elif union_score:
-            self.union = BeliefAggregator(ignite(seed, shape).burning)
+            ignition = ignite(seed, shape, ground, border_cells=border_cells)
+            self.union = BeliefAggregator(ignition.burning)
         if union_score:
             self.visits = [TickInbox(TICK_NS) for _ in range(n_aircraft * self.sources)]
         self.deadlines: dict[int, dict[str, float]] = {}

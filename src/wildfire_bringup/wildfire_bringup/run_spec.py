@@ -20,6 +20,9 @@ import numpy as np
 from wildfire_belief.sensors import noisy
 from wildfire_bringup.agent_processes import agent_groups, composed_commands, process_layout
 from wildfire_bringup.monitor_protocol import REPORTER
+from wildfire_sim.defaults import EPISODE_DEFAULTS
+from wildfire_sim.ground_parameters import ground_values
+from wildfire_sim.landscape import PAPER_LANDSCAPE, Landscape
 from wildfire_testbed.hosts import place_nodes
 from wildfire_testbed.netfaults import NetemSpec, Partition
 
@@ -71,6 +74,11 @@ class RunSpec:
     agents_per_process: int | None = None
     """Agent nodes per process, at most (composed agents); None: one per process up to 8
     aircraft, at most 8 agent processes above (:mod:`wildfire_bringup.agent_processes`)."""
+    ground: Landscape = PAPER_LANDSCAPE
+    """The map and the starting fire (``--map-size``, ``--ignitions``): every node's ground
+    parameters (:mod:`wildfire_sim.ground_parameters`)."""
+    preburn_area_m2: float = 0.0
+    """With > 0, the fire pre-burns until it has touched this area (``--preburn-area``)."""
 
     @property
     def noisy(self) -> bool:
@@ -116,7 +124,8 @@ def node_commands(
     spec: RunSpec, agent_states: dict[int, np.ndarray] | None = None
 ) -> dict[str, list[str]]:
     """Command line of every node, by node name (``fire_simulator``, ``uav0``, ...)."""
-    common = {"seed": spec.seed, "shape": spec.shape, "mode": spec.mode}
+    ground = ground_values(spec.ground, EPISODE_DEFAULTS.border_cells)
+    common = {"seed": spec.seed, "shape": spec.shape, "mode": spec.mode, **ground}
     sensing = {"sensor": spec.sensor, "pixel_error": spec.pixel_error} if spec.noisy else {}
     commands = {
         "fire_simulator": [
@@ -130,6 +139,7 @@ def node_commands(
                     "n_aircraft": spec.n_aircraft,
                     "extra_reporters": REPORTER,
                     "aggregator_reports": not spec.limited_links,
+                    **({"preburn_area_m2": spec.preburn_area_m2} if spec.preburn_area_m2 else {}),
                 }
             ),
         ],
@@ -162,6 +172,7 @@ def node_commands(
             "start_y": y,
             "start_heading": heading,
             "start_bank_steps": bank_steps,
+            **ground,
         }
         if spec.limited_links:
             params |= {"comm": spec.comm, "shape": spec.shape}

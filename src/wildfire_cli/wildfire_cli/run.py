@@ -30,7 +30,6 @@ from wildfire_cli.common import (
     scenario_settings,
 )
 from wildfire_cli.progress import progress_bar
-from wildfire_msgs_py.map_geometry import PAPER_MAP
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -255,16 +254,13 @@ def build_spec(args: argparse.Namespace) -> Any:
         shapes=(shape.value,), observation="none", **scenario_settings(args)
     ).validate()
     policy = resolve_policy(args.policy, config)
-    if config.landscape is not None or config.preburn_area_m2 > 0:
+    ground = config.ground
+    if ground.fuel is not None or ground.ignition_map is not None:
+        # A node would have to read the user's file; on virtual hosts it may not be there.
         raise UserError(
-            "--fuel-map/--ignition-map/--ignitions/--preburn-area: the distributed system "
-            "flies the paper's fuel and shapes so far (eval flies them)"
-        )
-    if not config.geometry.is_paper:
-        # The nodes exchange whole maps every tick; at field scale they must send tiles.
-        raise UserError(
-            f"--map-size {config.geometry.text}: the distributed system flies the "
-            f"{PAPER_MAP.text} map until its maps travel as tiles (eval flies any size)"
+            "--fuel-map/--ignition-map: the distributed system flies --map-size, --ignitions "
+            "and --preburn-area; rasters fly in eval, report and train (the nodes would read "
+            "your file, and it does not travel on the wire yet)"
         )
     if not config.comm.ideal and args.realtime:
         raise UserError(f"--comm {config.comm}: limited radio links fly in lockstep only so far")
@@ -293,6 +289,8 @@ def build_spec(args: argparse.Namespace) -> Any:
         wind_filter=config.wind_filter,
         foxglove_port=check_foxglove_port(args.foxglove, hosts),
         agents_per_process=args.agents_per_process,
+        ground=ground,
+        preburn_area_m2=config.preburn_area_m2,
     )
 
 
@@ -320,6 +318,7 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         "seed": spec.seed,
         "wind": list(spec.wind),
         "mode": spec.mode,
+        **spec.ground.summary(),
         "score": round(monitor.score),
         "decisions": decisions,
         "flight_time_s": decisions / 10.0,
@@ -378,7 +377,7 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         decided = sum(v.get("decisions", 0) for v in monitor.deadlines.values())
         missed = sum(v.get("missed", 0) for v in monitor.deadlines.values())
         result["missed_deadline_fraction"] = missed / decided if decided else 0.0
-    ignition = ignite(spec.seed, spec.shape)
+    ignition = ignite(spec.seed, spec.shape, spec.ground)
     if monitor.burned is not None:
         # The belief starts as the ignition seed (docs/model.md, Shared belief), as in the
         # aggregator.

@@ -126,7 +126,8 @@ def known_future(seed: int, config: EnvConfig) -> KnownFuture:
         preburn_steps=config.preburn_steps,
         border_cells=config.border_cells,
         params=config.fire,
-        geometry=config.geometry,
+        ground=config.ground,
+        preburn_area_m2=config.preburn_area_m2,
     )
     maps = [episode.burning.copy()]
     while not episode.final:

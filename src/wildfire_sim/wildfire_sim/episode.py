@@ -29,6 +29,7 @@ from wildfire_msgs_py.contract import DECISION_PERIOD_NS
 from wildfire_msgs_py.map_geometry import CELL_SIZE_M
 from wildfire_sim.defaults import EPISODE_DEFAULTS, EpisodeDefaults
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
+from wildfire_sim.landscape import PAPER_LANDSCAPE, Landscape
 from wildfire_sim.shapes import Shape, shape_masks
 
 if TYPE_CHECKING:
@@ -149,21 +150,21 @@ class FireEpisode:
         preburn_steps: int = EPISODE_DEFAULTS.preburn_steps,
         border_cells: int = EPISODE_DEFAULTS.border_cells,
         params: FireParams | None = None,
-        geometry: MapGeometry = PAPER_MAP,
+        ground: Landscape = PAPER_LANDSCAPE,
+        preburn_area_m2: float = 0.0,
     ) -> None:
         self.seed = int(seed)
         self.shape = Shape.parse(str(shape.value if isinstance(shape, Shape) else shape))
         self.wind = (float(wind[0]), float(wind[1]))
         self.max_decisions = int(max_decisions)
         self.border_cells = int(border_cells)
-        masks = shape_masks(self.shape, geometry)
+        masks = ground.start(self.shape, self.seed, self.border_cells)
         from wildfire_sim.fire import BatchedFire
 
-        self.fire = BatchedFire(1, params, geometry)
+        self.fire = BatchedFire(1, params, ground.geometry, ground.fuel)
         self.fire.reset([0], [self.seed], masks.ignition, masks.fuel, np.asarray(self.wind))
         self.ignition_burning = self.fire.burning[0].copy()
-        for _ in range(preburn_steps):
-            self.fire.step()
+        preburn(self.fire, np.ones(1, dtype=bool), preburn_steps, preburn_area_m2, border_cells)
         self.decisions = 0
         self.phase = "running"
         if fire_at_border(self.burning, self.border_cells):

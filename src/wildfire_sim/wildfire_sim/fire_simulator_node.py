@@ -62,6 +62,7 @@ from wildfire_sim.fire_protocol import (
     Output,
     StatusOut,
 )
+from wildfire_sim.ground_parameters import GROUND_PARAMETERS, ground_of
 from wildfire_sim.shapes import Shape
 
 D = EPISODE_DEFAULTS
@@ -73,12 +74,13 @@ PARAMETERS = (
     ParamSpec("duration_s", D.duration_s, "flight time limit in seconds", 0.1, 100_000.0),
     ParamSpec("preburn_steps", D.preburn_steps, "fire steps before the aircraft start", 0, 1000),
     ParamSpec(
-        "border_cells",
-        D.border_cells,
-        "the episode ends when fire is this close to the edge",
-        0,
-        49,
+        "preburn_area_m2",
+        0.0,
+        "with > 0, pre-burn until the fire has touched this area instead",
+        0.0,
+        4e8,
     ),
+    *GROUND_PARAMETERS,
     ParamSpec("mode", "lockstep", "lockstep (sim time, /clock) or realtime", choices=MODES),
     ParamSpec("n_aircraft", 2, "aircraft uav0..uav{n-1} that report in lockstep", 1, 64),
     ParamSpec("extra_reporters", "", "comma-separated further lockstep reporters"),
@@ -109,6 +111,8 @@ class FireSimulatorNode(Node):
             "wind_y": p["wind_y"],
             "mode": mode.value,
             "n_aircraft": p["n_aircraft"],
+            "map_rows": p["map_rows"],
+            "map_cols": p["map_cols"],
         }
         episode = FireEpisode(
             p["seed"],
@@ -117,6 +121,8 @@ class FireSimulatorNode(Node):
             max_decisions=decisions_in(p["duration_s"]),
             preburn_steps=p["preburn_steps"],
             border_cells=p["border_cells"],
+            ground=ground_of(p),
+            preburn_area_m2=p["preburn_area_m2"],
         )
         self.protocol = protocol = FireProtocol(episode, mode, reporters)
         self.input_guard = InputGuard(self.get_logger().warning)

@@ -14,10 +14,12 @@ from typing import NamedTuple
 
 import numpy as np
 
+from wildfire_sim.defaults import EPISODE_DEFAULTS
 from wildfire_sim.fuel_map import FuelMap
-from wildfire_sim.grid import PAPER_MAP, MapGeometry
+from wildfire_sim.grid import MapGeometry
+from wildfire_sim.landscape import PAPER_LANDSCAPE, Landscape
 from wildfire_sim.seeding import Stream, generator
-from wildfire_sim.shapes import Shape, shape_masks
+from wildfire_sim.shapes import Shape
 from wildfire_sim.spread import FireParams
 
 
@@ -54,14 +56,19 @@ class Ignition(NamedTuple):
 def ignite(
     seed: int,
     shape: Shape | str,
-    geometry: MapGeometry = PAPER_MAP,
+    ground: Landscape | MapGeometry = PAPER_LANDSCAPE,
     params: FireParams | None = None,
+    border_cells: int = EPISODE_DEFAULTS.border_cells,
 ) -> Ignition:
-    """Episode ``seed``'s fire of ``shape`` at ignition, as
-    :func:`wildfire_sim.episode.initial_fire` starts it (the wind does not enter)."""
-    masks = shape_masks(Shape.parse(str(shape)), geometry)  # str of a Shape is its value
+    """Episode ``seed``'s fire of ``shape`` at ignition on ``ground`` (a map alone: the
+    paper's fuel on it), as :func:`wildfire_sim.episode.initial_fire` starts it (the wind
+    does not enter; ``border_cells`` keeps seeded ignitions off the edge band)."""
+    if isinstance(ground, MapGeometry):
+        ground = Landscape(ground)
+    # str of a Shape is its value
+    masks = ground.start(Shape.parse(str(shape)), int(seed), border_cells)
     rng = generator(int(seed), Stream.FIRE)
-    fuel = draw_fuel(rng, geometry.shape, masks.fuel, params or FireParams())
+    fuel = draw_fuel(rng, ground.geometry.shape, masks.fuel, params or FireParams(), ground.fuel)
     return Ignition(first_burning(masks.ignition, fuel), fuel)
 
 

@@ -1,0 +1,62 @@
+"""The ground parameters every node of a run shares: the map and how its fire starts.
+
+The fire simulator, the belief aggregator and every agent declare :data:`GROUND_PARAMETERS`
+(what ``ros2 param describe`` shows) beside their own, and :func:`ground_of` turns the values
+into the :class:`~wildfire_sim.landscape.Landscape` the environment flies. So every node
+sizes its maps and checks its inputs against the same geometry, and starts from the same
+ignition (:func:`wildfire_sim.ignition.ignite`), without reading any file: a run spread
+over virtual hosts needs nothing on their disks but the code.
+
+Fuel and ignition rasters (``--fuel-map``, ``--ignition-map``) are files, not parameters:
+the distributed system does not fly them yet (``wildfire run`` says so in one line).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from wildfire_ros.node_support import ParamSpec
+from wildfire_sim.defaults import EPISODE_DEFAULTS
+from wildfire_sim.grid import MAX_SIDE, MIN_SIDE, PAPER_MAP, MapGeometry
+from wildfire_sim.landscape import MAX_IGNITIONS, PAPER_LANDSCAPE, Landscape
+
+GROUND_PARAMETERS = (
+    ParamSpec("map_rows", PAPER_MAP.rows, "map cells of 10 m, south to north", MIN_SIDE, MAX_SIDE),
+    ParamSpec("map_cols", PAPER_MAP.cols, "map cells of 10 m, west to east", MIN_SIDE, MAX_SIDE),
+    ParamSpec(
+        "ignitions",
+        0,
+        "seeded 5 x 5 ignitions on cells with fuel (0: the shape at the map's centre)",
+        0,
+        MAX_IGNITIONS,
+    ),
+    ParamSpec(
+        "border_cells",
+        EPISODE_DEFAULTS.border_cells,
+        "the episode ends when fire is this close to the edge (seeded ignitions keep clear)",
+        0,
+        49,
+    ),
+)
+
+
+def ground_of(p: Mapping[str, Any]) -> Landscape:
+    """The landscape of the ground parameter values ``p`` (of :data:`GROUND_PARAMETERS`)."""
+    geometry = MapGeometry(p["map_rows"], p["map_cols"])
+    if geometry.is_paper and not p["ignitions"]:
+        return PAPER_LANDSCAPE
+    return Landscape(geometry, ignitions=p["ignitions"])
+
+
+def ground_values(ground: Landscape, border_cells: int) -> dict[str, Any]:
+    """The parameter values of ``ground`` (what the launcher passes every node)."""
+    return {
+        "map_rows": ground.geometry.rows,
+        "map_cols": ground.geometry.cols,
+        "ignitions": ground.ignitions,
+        "border_cells": border_cells,
+    }
+
+
+__all__ = ["GROUND_PARAMETERS", "ground_of", "ground_values"]
