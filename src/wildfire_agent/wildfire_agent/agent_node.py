@@ -40,10 +40,9 @@ from wildfire_agent.deadlines import PERIOD_S
 from wildfire_agent.dynamics import MAX_BANK_STEPS, AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_msgs_py import camera_codec, codecs, contract, radio_codec, system_codecs
+from wildfire_msgs_py.belief_inputs import belief_inputs
 from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.wire_checks import (
-    checked_age_image,
-    checked_belief_grid,
     checked_episode,
     checked_fire_grid,
     checked_radio,
@@ -96,11 +95,8 @@ class AgentNode(Node):
             (contract.FIRE_MAP, lambda m: protocol.on_fire_map(*checked_fire_grid(m, geo))),
             (contract.EPISODE, lambda m: protocol.on_status(checked_episode(m, self.seed))),
         ]
-        if protocol.keeps_belief:
-            inputs += [
-                (contract.BELIEF, lambda m: protocol.on_belief(*checked_belief_grid(m, geo))),
-                (contract.BELIEF_AGE_EXACT, lambda m: protocol.on_ages(*checked_age_image(m, geo))),
-            ]
+        if protocol.keeps_belief:  # keyframes and deltas, mirrored into the belief of each tick
+            inputs += belief_inputs(geo, protocol.on_belief_frame)
         subscriptions: list[tuple[contract.TopicSpec, Any, Any, int | None]] = [
             (spec, handle, deep, None) for spec, handle in inputs
         ]

@@ -43,7 +43,8 @@ from wildfire_agent.deadlines import (
 )
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
-from wildfire_msgs_py.belief_codec import believed_burning
+from wildfire_msgs_py.belief_codec import belief_probability, believed_burning
+from wildfire_msgs_py.belief_delta import Frame
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
 from wildfire_msgs_py.contract import RADIO_STATUS
 from wildfire_msgs_py.input_guard import (
@@ -284,6 +285,11 @@ class AgentProtocol:
 
     def on_ages(self, stamp: int, age_s: np.ndarray) -> list[Output]:
         return self._keep_belief(self.ages, stamp, age_s)
+
+    def on_belief_frame(self, frame: Frame) -> list[Output]:
+        """The whole shared belief of one tick (mirrored from its keyframe and delta)."""
+        out = self.on_belief(frame.stamp, belief_probability(frame.grid))
+        return out + self.on_ages(frame.stamp, frame.age_s)
 
     def _keep_belief(
         self, inbox: TickInbox[np.ndarray], stamp: int, grid: np.ndarray

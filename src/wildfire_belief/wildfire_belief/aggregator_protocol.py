@@ -64,6 +64,8 @@ class BeliefOut(NamedTuple):
     """The probability of burning (noisy sensing); None under the perfect disc."""
     status: NodeStatus | None
     """The node's shared-belief status when due on ``/diagnostics`` (once a second)."""
+    clock: int = 0
+    """The belief's tick counter (its ages grow by one tick per tick of it)."""
 
 
 class AckOut(NamedTuple):
@@ -157,7 +159,8 @@ class AggregatorProtocol:
         burning = aggregator.burning.copy()
         probability = None if self.filtered is None else self.filtered.probability()
         score = float(aggregator.score)
-        return BeliefOut(stamp, burning, aggregator.age_s(), score, probability, status)
+        age_s = aggregator.age_s()
+        return BeliefOut(stamp, burning, age_s, score, probability, status, aggregator.ticks)
 
     # --- inputs -------------------------------------------------------------------------------
 

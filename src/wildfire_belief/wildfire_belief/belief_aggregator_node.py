@@ -1,10 +1,12 @@
 """Belief-aggregator node: merges every aircraft's visits into the shared belief.
 
 Subscribes to ``/uavK/visit`` of every aircraft and the episode status; publishes
-``/wildfire/belief``, ``/wildfire/belief_age`` (display, 0..100), ``/wildfire/belief_age_exact``
-(float32 seconds, what belief policies see) and the cumulative ``/wildfire/score``, all
-latched. The merge is :class:`wildfire_belief.aggregator.BeliefAggregator`; the belief starts
-as the ignition seed (``wildfire_sim.ignition.ignite`` of the episode seed and shape).
+``/wildfire/belief``, ``/wildfire/belief_age`` (display, 0..100) and
+``/wildfire/belief_age_exact`` (float32 seconds, what belief policies see) whole once a fire
+step (keyframes), ``/wildfire/belief_delta`` on the ticks between
+(:mod:`wildfire_msgs_py.belief_delta`), and the cumulative ``/wildfire/score``, all latched.
+The merge is :class:`wildfire_belief.aggregator.BeliefAggregator`; the belief starts as the
+ignition seed (``wildfire_sim.ignition.ignite`` of the episode seed and shape).
 
 The node only decodes, calls and encodes: the lockstep barrier (merge tick ``k`` once every
 aircraft's visit of ``k`` is in), the real-time merges and the recovery of a restarted
@@ -39,12 +41,9 @@ from wildfire_belief.aggregator_protocol import (
 )
 from wildfire_belief.sensors import report_window
 from wildfire_msgs_py import contract
-from wildfire_msgs_py.belief_codec import belief_to_msg
-from wildfire_msgs_py.codecs import (
-    belief_age_to_msg,
-    diagnostics_to_msg,
-    score_to_msg,
-)
+from wildfire_msgs_py.belief_codec import belief_grid
+from wildfire_msgs_py.belief_delta import BeliefDelta, DeltaEncoder, delta_to_msg
+from wildfire_msgs_py.codecs import belief_age_to_msg, diagnostics_to_msg, grid_to_msg, score_to_msg
 from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.system_codecs import ack_to_msg, age_image_to_msg
 from wildfire_msgs_py.wire_checks import (
@@ -89,6 +88,8 @@ class BeliefAggregatorNode(Node):
         self.belief_pub = contract_publisher(self, contract.BELIEF)
         self.age_pub = contract_publisher(self, contract.BELIEF_AGE)
         self.age_exact_pub = contract_publisher(self, contract.BELIEF_AGE_EXACT)
+        self.delta_pub = contract_publisher(self, contract.BELIEF_DELTA)
+        self.delta_encoder = DeltaEncoder()
         self.score_pub = contract_publisher(self, contract.SCORE)
         self.ack_pub = contract_publisher(self, contract.ACK)
         self.request_pub = contract_publisher(self, contract.BELIEF_REQUEST)
@@ -160,10 +161,14 @@ class BeliefAggregatorNode(Node):
         """Encode and publish the protocol's outputs, in their order."""
         for out in outputs:
             if isinstance(out, BeliefOut):
-                message = belief_to_msg(out.burning, out.stamp, probability=out.probability)
-                self.belief_pub.publish(message)
-                self.age_pub.publish(belief_age_to_msg(out.age_s, out.stamp))
-                self.age_exact_pub.publish(age_image_to_msg(out.age_s, out.stamp))
+                grid = belief_grid(out.burning, out.probability)
+                frame = self.delta_encoder.encode(out.stamp, grid, out.age_s, out.clock)
+                if isinstance(frame, BeliefDelta):
+                    self.delta_pub.publish(delta_to_msg(frame))
+                else:  # a keyframe: the whole maps
+                    self.belief_pub.publish(grid_to_msg(grid, out.stamp))
+                    self.age_pub.publish(belief_age_to_msg(out.age_s, out.stamp))
+                    self.age_exact_pub.publish(age_image_to_msg(out.age_s, out.stamp))
                 self.score_pub.publish(score_to_msg(out.score))
                 if out.status is not None:
                     inputs = self.input_guard.status(NAME, NAME)

@@ -30,7 +30,8 @@ from wildfire_belief.filtered_aggregator import FilteredAggregator
 from wildfire_belief.sensors import noisy, report_window, sensors_of
 from wildfire_bringup.trajectory import stacked_trajectory
 from wildfire_msgs_py import contract
-from wildfire_msgs_py.belief_codec import believed_burning
+from wildfire_msgs_py.belief_codec import belief_probability, believed_burning
+from wildfire_msgs_py.belief_delta import Frame
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
 from wildfire_msgs_py.input_guard import (
     INPUT_STATUS,
@@ -149,6 +150,14 @@ class RunMonitor:
 
     def on_ages(self, ages: np.ndarray) -> None:
         self.ages = ages
+
+    def on_belief_frame(self, frame: Frame) -> list[int]:
+        """The whole shared belief of one tick (mirrored from its keyframe and delta). A tick
+        completed after a newer one (its delta came late) is not the final belief: skipped."""
+        if frame.stamp > self.belief_stamp:
+            self.on_ages(frame.age_s)
+            self.on_belief(frame.stamp, belief_probability(frame.grid))
+        return []  # the belief completes no tick of the monitor's
 
     def on_score(self, score: float) -> None:
         # Cumulative and unstamped: an older (replayed) value is smaller.

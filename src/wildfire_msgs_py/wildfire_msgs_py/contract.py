@@ -229,6 +229,14 @@ BELIEF_AGE_EXACT = TopicSpec(
     False,
     "exact belief age in seconds, 32FC1, row 0 south (the ages belief policies see)",
 )
+BELIEF_DELTA = TopicSpec(
+    "/wildfire/belief_delta",
+    "std_msgs/msg/Int32MultiArray",
+    LATCHED_HISTORY,
+    False,
+    "the shared belief between keyframes: the cells (value, exact age) that differ from the "
+    "last whole /wildfire/belief and /wildfire/belief_age_exact (wildfire_msgs_py.belief_delta)",
+)
 STATE_STAMPED = TopicSpec(
     "state_stamped",
     "sensor_msgs/msg/JointState",
@@ -311,6 +319,7 @@ SYSTEM_TOPICS: tuple[TopicSpec, ...] = (
     EPISODE,
     ACK,
     BELIEF_AGE_EXACT,
+    BELIEF_DELTA,
     STATE_STAMPED,
     BELIEF_REQUEST,
     BELIEF_SNAPSHOT,
@@ -380,6 +389,7 @@ __all__ = [
     "BELIEF",
     "BELIEF_AGE",
     "BELIEF_AGE_EXACT",
+    "BELIEF_DELTA",
     "BELIEF_REQUEST",
     "BELIEF_SNAPSHOT",
     "CAMERA_CELLS",

@@ -18,6 +18,12 @@ from typing import Any
 import numpy as np
 
 from wildfire_msgs_py.belief_codec import belief_probability
+from wildfire_msgs_py.belief_delta import (
+    AGE_CAP_TICKS,
+    KEYFRAME_TICKS,
+    BeliefDelta,
+    delta_from_msg,
+)
 from wildfire_msgs_py.codecs import (
     FIRE_BURNING,
     FIRE_NOT_BURNING,
@@ -98,13 +104,38 @@ def checked_fire_grid(msg: Any, geometry: MapGeometry = PAPER_MAP) -> tuple[int,
     return stamp, grid == FIRE_BURNING
 
 
-def checked_belief_grid(msg: Any, geometry: MapGeometry = PAPER_MAP) -> tuple[int, np.ndarray]:
-    """Shared belief (percent of burning) -> (stamp ns, float32 probability of burning)."""
+def checked_belief_values(msg: Any, geometry: MapGeometry = PAPER_MAP) -> tuple[int, np.ndarray]:
+    """Shared belief -> (stamp ns, (rows, cols) int8 grid of percent of burning)."""
     stamp = _stamp(msg.header)
     grid = _map_grid(msg, geometry)
     if grid.min() < FIRE_NOT_BURNING or grid.max() > FIRE_BURNING:
         raise _reject(DropReason.OUT_OF_RANGE, "belief values outside 0..100")
+    return stamp, grid
+
+
+def checked_belief_grid(msg: Any, geometry: MapGeometry = PAPER_MAP) -> tuple[int, np.ndarray]:
+    """Shared belief (percent of burning) -> (stamp ns, float32 probability of burning)."""
+    stamp, grid = checked_belief_values(msg, geometry)
     return stamp, belief_probability(grid)
+
+
+def checked_belief_delta(msg: Any, geometry: MapGeometry = PAPER_MAP) -> BeliefDelta:
+    """Belief delta of a map of ``geometry``: increasing cells on the map, values in 0..100,
+    ages in 0..255 s, a keyframe not after it and fewer ticks since it than keyframes lie
+    apart."""
+    delta = delta_from_msg(msg)
+    if delta.stamp < 0 or not 0 <= delta.key_stamp <= delta.stamp:
+        raise _reject(DropReason.OUT_OF_RANGE, f"stamps {delta.stamp}, {delta.key_stamp} ns")
+    if not 1 <= delta.elapsed < KEYFRAME_TICKS:
+        raise _reject(DropReason.OUT_OF_RANGE, f"{delta.elapsed} ticks since the keyframe")
+    cells = delta.cells
+    if cells.size and (cells[0] < 0 or cells[-1] >= geometry.cells or np.any(np.diff(cells) <= 0)):
+        raise _reject(DropReason.OUT_OF_RANGE, "delta cells off the map or not increasing")
+    if cells.size and (delta.values.min() < FIRE_NOT_BURNING or delta.values.max() > FIRE_BURNING):
+        raise _reject(DropReason.OUT_OF_RANGE, "belief values outside 0..100")
+    if cells.size and (delta.ticks.min() < 0 or delta.ticks.max() > AGE_CAP_TICKS):
+        raise _reject(DropReason.OUT_OF_RANGE, f"ages outside 0..{AGE_CAP_TICKS} ticks")
+    return delta
 
 
 def checked_age_image(msg: Any, geometry: MapGeometry = PAPER_MAP) -> tuple[int, np.ndarray]:
