@@ -24,7 +24,9 @@ topic                      type                                QoS (reliability,
 
 System topics of the running nodes (lockstep protocol, exact agent inputs, recovery):
 ``/wildfire/episode`` (DiagnosticStatus), ``/wildfire/ack`` (Header),
-``/wildfire/belief_age_exact`` (Image 32FC1), ``/uavK/state_stamped`` (JointState),
+``/wildfire/belief_age_exact`` (Image 32FC1), ``/wildfire/belief_delta`` (Int32MultiArray:
+the belief between whole keyframes, ``wildfire_msgs_py.belief_delta``),
+``/uavK/state_stamped`` (JointState),
 ``/wildfire/belief_request`` (Header), ``/wildfire/belief_snapshot`` (Float64MultiArray),
 ``/uavK/radio`` (UInt8MultiArray, under limited radio links);
 see the entries below and ``docs/ros2_layer.md``.
