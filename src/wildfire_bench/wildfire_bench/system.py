@@ -10,7 +10,11 @@ For each ROS runtime backend (real rclpy on Fast DDS, and our Cyclone DDS layer)
 * real time with 8 aircraft at 10 Hz: fraction of decisions that missed their 100 ms slot
   (from every agent's deadline statistics), target < 1 % on a quiet machine;
 * real time under camera sensing (2 aircraft, the belief network, four cameras' reports and
-  the filtered belief): missed slots and mean decision compute.
+  the filtered belief): missed slots and mean decision compute;
+* field scale: lockstep speed-up with 16 aircraft on a 500 x 500 map with two fires (target
+  >= 2x), and the bytes per simulated second of a recorded run of 2 aircraft at 1000 x 1000
+  against the same run on the paper's map (target <= 3x: a bag grows with the aircraft and
+  the burning front, not with the map).
 
 The runtime backend is chosen once per process, so each backend is measured in a child
 process (``python -m wildfire_bench.system --backend B``).
@@ -23,6 +27,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,11 +42,25 @@ def _spec(
     seed: int = 1_000_000,
     policy: str = "rh",
     sensor: str = "disc",
+    field: tuple[int, int, int] | None = None,
+    record_dir: Path | None = None,
 ) -> Any:
+    """The run of ``n`` aircraft; ``field``: (rows, cols, ignitions) of a field map."""
     from wildfire_bringup.launcher import RunSpec
+    from wildfire_sim.grid import MapGeometry
+    from wildfire_sim.landscape import Landscape
     from wildfire_world.env import EnvConfig, draw_scenario
 
-    scenario = draw_scenario(seed, EnvConfig(n_aircraft=n, max_duration_s=duration))
+    ground = (
+        Landscape() if field is None else Landscape(MapGeometry(*field[:2]), ignitions=field[2])
+    )
+    config = EnvConfig(
+        n_aircraft=n,
+        max_duration_s=duration,
+        geometry=ground.geometry,
+        landscape=None if field is None else ground,
+    )
+    scenario = draw_scenario(seed, config)
     start = np.stack([scenario.start.x_m, scenario.start.y_m, scenario.start.heading_rad], axis=1)
     return RunSpec(
         n_aircraft=n,
@@ -54,7 +73,46 @@ def _spec(
         lockstep=lockstep,
         sensor=sensor,
         pixel_error=0.1 if sensor == "camera" else 0.0,
+        ground=ground,
+        record_dir=record_dir,
     )
+
+
+def measure_field(quick: bool) -> dict[str, Any]:
+    """Field-scale figures of this process's backend (see the module docstring)."""
+    import tempfile
+
+    from wildfire_bringup.launcher import Launcher
+
+    duration = 20.0 if quick else 60.0
+    launcher = Launcher(_spec(16, duration, lockstep=True, field=(500, 500, 2)))
+    monitor = launcher.run()
+    ticks = monitor.status.tick if monitor.status else 0
+    result: dict[str, Any] = {
+        "field_lockstep_aircraft": 16,
+        "field_lockstep_map": "500,500",
+        "field_lockstep_speedup": ticks / 10.0 / launcher.flight_wall_s
+        if launcher.flight_wall_s
+        else 0.0,
+        "field_lockstep_nodes_cpu_ms_per_tick": (
+            1e3 * launcher.flight_cpu_s / ticks if ticks else float("nan")
+        ),
+    }
+    sizes = {}
+    with tempfile.TemporaryDirectory() as work:
+        for name, field in (("paper", None), ("field", (1000, 1000, 1))):
+            bag = Path(work) / name
+            run = Launcher(_spec(2, duration / 2, True, policy="rh", field=field, record_dir=bag))
+            status = run.run().status
+            flown = max(status.tick if status is not None else 0, 1) / 10.0
+            sizes[name] = sum(f.stat().st_size for f in bag.iterdir()) / flown
+    result |= {
+        "paper_bag_bytes_per_sim_s": sizes["paper"],
+        "field_bag_bytes_per_sim_s": sizes["field"],
+        "field_bag_map": "1000,1000",
+        "field_over_paper_bag": sizes["field"] / sizes["paper"],
+    }
+    return result
 
 
 def measure_system(quick: bool = False, smoke: bool = False) -> dict[str, Any]:
@@ -118,6 +176,7 @@ def measure_system(quick: bool = False, smoke: bool = False) -> dict[str, Any]:
                 np.mean([v.get("compute_ms_mean", np.nan) for v in deadlines])
             ),
         }
+        result |= measure_field(quick)
     return result
 
 

@@ -36,12 +36,14 @@ from wildfire_agent.agent_protocol import MAX_BANK_RAD
 from wildfire_bringup.monitor_protocol import REPORTER, RunMonitor
 from wildfire_msgs_py import contract
 from wildfire_msgs_py.belief_inputs import belief_inputs
-from wildfire_msgs_py.codecs import diagnostics_from_msg, fuel_grid_from_msg
+from wildfire_msgs_py.codecs import diagnostics_from_msg
 from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.system_codecs import READY_SUFFIX, ack_to_msg
 from wildfire_msgs_py.wire_checks import (
     checked_episode,
     checked_fire_grid,
+    checked_fuel_grid,
+    checked_fuel_tile,
     checked_score,
     checked_stamped_state,
     checked_visit,
@@ -87,7 +89,8 @@ class RunMonitorNode(Node, RunMonitor):
 
         subscribe(contract.EPISODE, lambda m: self.on_episode(checked_episode(m, self.seed)))
         subscribe(contract.FIRE_MAP, lambda m: self.on_fire_map(*checked_fire_grid(m, geometry)))
-        subscribe(contract.FUEL_MAP, lambda m: self.on_fuel_map(fuel_grid_from_msg(m)))
+        subscribe(contract.FUEL_MAP, lambda m: self.on_fuel_map(*checked_fuel_grid(m, geometry)))
+        subscribe(contract.FUEL_TILES, lambda m: self.on_fuel_tile(checked_fuel_tile(m, geometry)))
         for spec, handle in belief_inputs(geometry, self.on_belief_frame):
             subscribe(spec, handle)
         subscribe(contract.SCORE, lambda m: self.on_score(checked_score(m)))

@@ -33,6 +33,7 @@ from wildfire_msgs_py import contract
 from wildfire_msgs_py.belief_codec import belief_probability, believed_burning
 from wildfire_msgs_py.belief_delta import Frame
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
+from wildfire_msgs_py.grid_tiles import Tile, TiledMap
 from wildfire_msgs_py.input_guard import (
     INPUT_STATUS,
     DropReason,
@@ -89,6 +90,8 @@ class RunMonitor:
         self.fire: np.ndarray | None = None
         self.burned: np.ndarray | None = None
         self.fuel: np.ndarray | None = None
+        self.fuel_map = TiledMap()
+        """The fuel, whole now and then and tiles between (``wildfire_msgs_py.grid_tiles``)."""
         self.belief: np.ndarray | None = None
         self.belief_stamp = -1
         self.ages: np.ndarray | None = None
@@ -140,8 +143,13 @@ class RunMonitor:
             self.merge_union()
         return self.report()
 
-    def on_fuel_map(self, fuel: np.ndarray) -> None:
-        self.fuel = fuel
+    def on_fuel_map(self, stamp: int, fuel: np.ndarray) -> None:
+        self.fuel_map.on_whole(stamp, fuel)
+        self.fuel = self.fuel_map.grid
+
+    def on_fuel_tile(self, tile: Tile) -> None:
+        self.fuel_map.on_tile(tile)
+        self.fuel = self.fuel_map.grid
 
     def on_belief(self, stamp: int, probability: np.ndarray) -> None:
         self.belief_stamp = self._newer(self.belief_stamp, stamp)

@@ -11,6 +11,7 @@ topic                      type                                QoS (reliability,
 ``/clock``                 ``rosgraph_msgs/msg/Clock``         reliable, volatile, 1
 ``/wildfire/fire_map``     ``nav_msgs/msg/OccupancyGrid``      reliable, transient-local, 1
 ``/wildfire/fuel_map``     ``nav_msgs/msg/OccupancyGrid``      reliable, transient-local, 1
+``/wildfire/fuel_tiles``   ``nav_msgs/msg/OccupancyGrid``      reliable, transient-local, 100
 ``/wildfire/belief``       ``nav_msgs/msg/OccupancyGrid``      reliable, transient-local, 1
 ``/wildfire/belief_age``   ``nav_msgs/msg/OccupancyGrid``      reliable, transient-local, 1
 ``/wildfire/score``        ``std_msgs/msg/Float64``            reliable, transient-local, 1
@@ -121,7 +122,16 @@ FUEL_MAP = TopicSpec(
     "nav_msgs/msg/OccupancyGrid",
     LATCHED,
     False,
-    "true fuel: the integer fuel value 0..20 stored directly in each cell",
+    "true fuel: the integer fuel value 0..20 stored directly in each cell; whole at the "
+    "start and every 40 fire steps, /wildfire/fuel_tiles between",
+)
+FUEL_TILES = TopicSpec(
+    "/wildfire/fuel_tiles",
+    "nav_msgs/msg/OccupancyGrid",
+    QosSpec(depth=100, reliable=True, transient_local=True),
+    False,
+    "true fuel between whole fuel maps: the 32 x 32 tiles in which fuel changed in a fire "
+    "step, placed by info.origin (wildfire_msgs_py.grid_tiles)",
 )
 BELIEF = TopicSpec(
     "/wildfire/belief",
@@ -306,6 +316,7 @@ TOPICS: tuple[TopicSpec, ...] = (
     CLOCK,
     FIRE_MAP,
     FUEL_MAP,
+    FUEL_TILES,
     BELIEF,
     BELIEF_AGE,
     SCORE,
@@ -405,6 +416,7 @@ __all__ = [
     "EPISODE",
     "FIRE_MAP",
     "FUEL_MAP",
+    "FUEL_TILES",
     "LATCHED",
     "LATCHED_HISTORY",
     "MAP_FRAME",

@@ -36,6 +36,7 @@ from wildfire_msgs_py.codecs import (
     visit_from_msg,
 )
 from wildfire_msgs_py.contract import DECISION_PERIOD_NS, MAP_FRAME
+from wildfire_msgs_py.grid_tiles import TILE, Tile, tile_shape
 from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
 from wildfire_msgs_py.map_geometry import CELL_SIZE_M, PAPER_MAP, MapGeometry
 from wildfire_msgs_py.radio_codec import RadioMessage, radio_from_msg
@@ -117,6 +118,31 @@ def checked_belief_grid(msg: Any, geometry: MapGeometry = PAPER_MAP) -> tuple[in
     """Shared belief (percent of burning) -> (stamp ns, float32 probability of burning)."""
     stamp, grid = checked_belief_values(msg, geometry)
     return stamp, belief_probability(grid)
+
+
+def checked_fuel_grid(msg: Any, geometry: MapGeometry = PAPER_MAP) -> tuple[int, np.ndarray]:
+    """Whole fuel map -> (stamp ns, (rows, cols) int16 fuel in 0..100)."""
+    stamp = _stamp(msg.header)
+    grid = _map_grid(msg, geometry)
+    if grid.size and grid.min() < 0:
+        raise _reject(DropReason.OUT_OF_RANGE, "fuel values below 0")
+    return stamp, grid.astype(np.int16)
+
+
+def checked_fuel_tile(msg: Any, geometry: MapGeometry = PAPER_MAP) -> Tile:
+    """A fuel tile: on the tile grid of the map, of its tile's size, fuel in 0..100."""
+    stamp = _stamp(msg.header)
+    x, y = msg.info.origin.position.x, msg.info.origin.position.y
+    cols, rows = (v / (CELL_SIZE_M * TILE) for v in (x, y))
+    on_grid = all(math.isfinite(v) and v >= 0 and v == int(v) for v in (rows, cols))
+    row0, col0 = (int(v) * TILE if on_grid else -1 for v in (rows, cols))
+    if not on_grid or not geometry.inside(np.array(row0), np.array(col0)):
+        raise _reject(DropReason.OUT_OF_RANGE, f"tile origin ({x:g}, {y:g}) off the tile grid")
+    _grid_layout(msg, tile_shape(geometry, row0, col0), "tile")
+    values = grid_from_msg(msg)
+    if values.size and values.min() < 0:
+        raise _reject(DropReason.OUT_OF_RANGE, "fuel values below 0")
+    return Tile(stamp, row0, col0, values.astype(np.int16))
 
 
 def checked_belief_delta(msg: Any, geometry: MapGeometry = PAPER_MAP) -> BeliefDelta:

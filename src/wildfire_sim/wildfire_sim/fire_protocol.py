@@ -26,6 +26,7 @@ from typing import NamedTuple
 import numpy as np
 
 from wildfire_msgs_py.codecs import NodeStatus
+from wildfire_msgs_py.grid_tiles import WHOLE_EVERY_STEPS, Tile, changed_tiles
 from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
 from wildfire_msgs_py.system_codecs import READY_SUFFIX
 from wildfire_sim.episode import DECISION_PERIOD_NS, FireEpisode, Mode
@@ -41,6 +42,9 @@ class MapsOut(NamedTuple):
     stamp: int
     burning: np.ndarray
     fuel: np.ndarray
+    fuel_tiles: list[Tile] | None = None
+    """The tiles of the fuel that changed since the last fuel sent, to send instead of the
+    whole fuel (:mod:`wildfire_msgs_py.grid_tiles`); None: send the whole fuel."""
 
 
 class StatusOut(NamedTuple):
@@ -82,6 +86,9 @@ class FireProtocol:
         self.acked: dict[str, int] = {}
         self.started = False
         self.complete = False
+        self.sent_fuel: np.ndarray | None = None
+        self.fuel_steps = 0
+        """Fire steps since the fuel went out whole."""
 
     def stamp_ns(self) -> int:
         """Sim time of the current tick."""
@@ -138,7 +145,15 @@ class FireProtocol:
 
     def maps(self) -> MapsOut:
         # Copies: the fire steps in place, maybe before these are sent.
-        return MapsOut(self.stamp_ns(), self.episode.burning.copy(), self.episode.fuel.copy())
+        stamp, fuel = self.stamp_ns(), self.episode.fuel.copy()
+        tiles = None
+        if self.sent_fuel is not None and self.fuel_steps < WHOLE_EVERY_STEPS:
+            tiles = changed_tiles(stamp, self.sent_fuel, fuel)
+            self.fuel_steps += 1
+        else:
+            self.fuel_steps = 1
+        self.sent_fuel = fuel
+        return MapsOut(stamp, self.episode.burning.copy(), fuel, tiles)
 
     def announce_tick(self) -> list[Output]:
         """Status (phase, tick) then, in lockstep, the clock of the current tick."""

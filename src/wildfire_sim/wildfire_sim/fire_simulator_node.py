@@ -1,7 +1,9 @@
 """Fire-simulator node: owns the true fire, publishes it, and paces the episode.
 
-Publishes ``/wildfire/fire_map`` and ``/wildfire/fuel_map`` (latched) at the start and after
-every fire step, and ``/wildfire/episode`` (phase, tick, scenario). Two modes:
+Publishes ``/wildfire/fire_map`` (latched) at the start and after every fire step, and
+``/wildfire/fuel_map`` whole at the start and every 40 fire steps with the changed tiles on
+``/wildfire/fuel_tiles`` between (:mod:`wildfire_msgs_py.grid_tiles`), and
+``/wildfire/episode`` (phase, tick, scenario). Two modes:
 
 * ``lockstep`` — drives ``/clock`` (tick ``k`` at ``k * 0.1`` s of sim time). It waits for
   ``<name>/ready`` on ``/wildfire/ack`` from every expected reporter (each agent ``uavK``,
@@ -32,6 +34,7 @@ from wildfire_msgs_py.codecs import (
     fire_grid_to_msg,
     fuel_grid_to_msg,
 )
+from wildfire_msgs_py.grid_tiles import tile_to_msg
 from wildfire_msgs_py.input_guard import InputGuard
 from wildfire_msgs_py.system_codecs import episode_to_msg
 from wildfire_msgs_py.wire_checks import checked_ack
@@ -129,6 +132,7 @@ class FireSimulatorNode(Node):
 
         self.fire_pub = contract_publisher(self, contract.FIRE_MAP)
         self.fuel_pub = contract_publisher(self, contract.FUEL_MAP)
+        self.fuel_tiles_pub = contract_publisher(self, contract.FUEL_TILES)
         self.episode_pub = contract_publisher(self, contract.EPISODE)
         self.clock_pub = contract_publisher(self, contract.CLOCK)
         self.diagnostics_pub = contract_publisher(self, contract.DIAGNOSTICS)
@@ -163,7 +167,10 @@ class FireSimulatorNode(Node):
         for out in outputs:
             if isinstance(out, MapsOut):
                 self.fire_pub.publish(fire_grid_to_msg(out.burning, out.stamp))
-                self.fuel_pub.publish(fuel_grid_to_msg(out.fuel, out.stamp))
+                if out.fuel_tiles is None:
+                    self.fuel_pub.publish(fuel_grid_to_msg(out.fuel, out.stamp))
+                for tile in out.fuel_tiles or ():
+                    self.fuel_tiles_pub.publish(tile_to_msg(tile))
             elif isinstance(out, StatusOut):
                 values = {
                     "tick": out.tick,

@@ -35,10 +35,10 @@ if TYPE_CHECKING:
     from pathlib import Path
 
 #: Topics that recording *every* topic leaves out (``bag record -a``, ``wildfire run
-#: --record``) unless asked for: 93 % of a belief run's bytes, and nothing needs them offline.
-#: The exact ages are rebuilt from the visits (:mod:`wildfire_learning.bag_transitions`), the
-#: snapshots exist only for a restarted aggregator. Name them to record them.
-BULKY_TOPICS: tuple[str, ...] = (contract.BELIEF_AGE_EXACT.name, contract.BELIEF_SNAPSHOT.name)
+#: --record``) unless asked for: the snapshots exist only for a restarted aggregator. (The
+#: exact ages, sent whole every tick, were 93 % of a belief run's bytes; now whole once a fire
+#: step, they are recorded: a belief delta needs its keyframe's ages to be read back.)
+BULKY_TOPICS: tuple[str, ...] = (contract.BELIEF_SNAPSHOT.name,)
 
 
 def offered_qos(node: Any, topic: str) -> list[QosSummary]:

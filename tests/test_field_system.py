@@ -1,0 +1,108 @@
+"""A field map in the distributed system, recorded: the run equals ``wildfire eval``, and the
+bag, read back as any ROS reader would, rebuilds the belief of every tick (keyframes and
+deltas) and the fuel (whole map and tiles) exactly."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wildfire_belief.aggregator import BeliefAggregator
+from wildfire_learning.evaluate import evaluate
+from wildfire_learning.vec_policies import make_vec_policy
+from wildfire_msgs_py import contract
+from wildfire_msgs_py.belief_codec import belief_grid
+from wildfire_msgs_py.belief_delta import BeliefMirror
+from wildfire_msgs_py.codecs import time_from_msg, visit_from_msg
+from wildfire_msgs_py.grid_tiles import TiledMap
+from wildfire_msgs_py.wire_checks import (
+    checked_age_image,
+    checked_belief_delta,
+    checked_belief_values,
+    checked_fuel_grid,
+    checked_fuel_tile,
+)
+from wildfire_ros.bag import read_messages
+from wildfire_sim.episode import FireEpisode, decisions_in
+from wildfire_sim.grid import MapGeometry
+from wildfire_sim.ignition import ignite
+from wildfire_sim.landscape import Landscape
+from wildfire_world.env import EnvConfig
+
+pytestmark = [pytest.mark.dds, pytest.mark.slow, pytest.mark.timeout(300)]
+WILDFIRE = str(Path(sys.executable).parent / "wildfire")
+FIELD = MapGeometry(300, 300)
+SEED, DURATION = 31, 30.0
+
+
+def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
+    tmp_path: Path, dds_env: dict[str, str]
+) -> None:
+    bag = tmp_path / "bag"
+    done = subprocess.run(
+        [
+            *(WILDFIRE, "run", "--policy", "rh", "--aircraft", "2", "--seed", str(SEED)),
+            *("--map-size", "300,300", "--ignitions", "2", "--duration", str(DURATION)),
+            *("--fast", "--json", "--record", str(bag)),
+        ],
+        env=dds_env,
+        capture_output=True,
+        text=True,
+        timeout=280,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    summary = json.loads(done.stdout)
+    ground = Landscape(FIELD, ignitions=2)
+    config = EnvConfig(n_aircraft=2, max_duration_s=DURATION, geometry=FIELD, landscape=ground)
+    reference = evaluate(make_vec_policy("rh"), config, [SEED]).episodes[0]
+    assert (summary["score"], summary["decisions"]) == (reference.score, reference.decisions)
+
+    mirror, fuel = BeliefMirror(), TiledMap()
+    frames, visits, counts = {}, {}, {"whole": 0, "tiles": 0}
+    for record in read_messages(bag):
+        msg, topic = record.message, record.topic
+        if topic == contract.BELIEF.name:
+            done_frames = mirror.on_key_grid(*checked_belief_values(msg, FIELD))
+        elif topic == contract.BELIEF_AGE_EXACT.name:
+            done_frames = mirror.on_key_ages(*checked_age_image(msg, FIELD))
+        elif topic == contract.BELIEF_DELTA.name:
+            done_frames = mirror.on_delta(checked_belief_delta(msg, FIELD))
+        else:
+            done_frames = []
+            if topic == contract.FUEL_MAP.name:
+                fuel.on_whole(*checked_fuel_grid(msg, FIELD))
+                counts["whole"] += 1
+            elif topic == contract.FUEL_TILES.name:
+                fuel.on_tile(checked_fuel_tile(msg, FIELD))
+                counts["tiles"] += 1
+            elif topic.endswith("/visit"):
+                tick = time_from_msg(msg.header.stamp) // contract.DECISION_PERIOD_NS
+                visits.setdefault(tick, {})[topic] = visit_from_msg(msg)
+        frames |= {frame.stamp: frame for frame in done_frames}
+
+    # The belief of every tick, exactly: the visits of the bag merged from the ignition.
+    aggregator = BeliefAggregator(ignite(SEED, "circular", ground).burning)
+    ticks = summary["decisions"]
+    assert sorted(frames) == [t * contract.DECISION_PERIOD_NS for t in range(ticks + 1)]
+    for tick in range(ticks + 1):
+        if tick:
+            aggregator.merge([visits[tick][k] for k in sorted(visits[tick])])
+        frame = frames[tick * contract.DECISION_PERIOD_NS]
+        np.testing.assert_array_equal(frame.grid, belief_grid(aggregator.burning))
+        assert np.array_equal(frame.age_s, aggregator.age_s()), f"tick {tick}"
+
+    # The fuel: whole once (30 s is 12 fire steps), tiles after; the fire's own at the end.
+    wind = (float(summary["wind"][0]), float(summary["wind"][1]))
+    episode = FireEpisode(
+        SEED, "circular", wind, max_decisions=decisions_in(DURATION), ground=ground
+    )
+    while not episode.final:
+        episode.advance()
+    assert counts["whole"] == 1 and counts["tiles"] > 0
+    np.testing.assert_array_equal(fuel.grid, episode.fuel)
