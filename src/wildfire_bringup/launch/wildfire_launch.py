@@ -7,7 +7,8 @@ draws start poses from the seed and offers lockstep mode.) ``foxglove:=8765`` ad
 Foxglove live view on that 127.0.0.1 port. ``agents_per_process:=K`` composes the agents, at
 most K to a process (``agent_group``, one ``--node`` section per agent), by the rule of
 ``wildfire run --agents-per-process`` (:mod:`wildfire_bringup.agent_processes`); left empty,
-one agent per process up to 8 aircraft.
+one agent per process up to 8 aircraft. ``map_size:=R,C`` and ``ignitions:=K`` fly a field
+map (every node gets the ground parameters of ``wildfire_sim.ground_parameters``).
 """
 
 from __future__ import annotations
@@ -63,7 +64,10 @@ def _nodes(context, *_args, **_kwargs):
     params = os.path.join(
         get_package_share_directory("wildfire_bringup"), "config", "wildfire.yaml"
     )
-    common = {"mode": "realtime", "seed": seed}
+    rows, cols = (int(v) for v in LaunchConfiguration("map_size").perform(context).split(","))
+    ignitions = int(LaunchConfiguration("ignitions").perform(context))
+    ground = {"map_rows": rows, "map_cols": cols, "ignitions": ignitions}
+    common = {"mode": "realtime", "seed": seed, **ground}
     nodes = [
         Node(
             package="wildfire_sim",
@@ -88,8 +92,8 @@ def _nodes(context, *_args, **_kwargs):
             "aircraft": k,
             "n_aircraft": n,
             "policy": policy,
-            "start_x": 500.0 + 250.0 * math.cos(bearing),
-            "start_y": 500.0 + 250.0 * math.sin(bearing),
+            "start_x": 5.0 * cols + 250.0 * math.cos(bearing),  # the map's centre is 5 m/cell
+            "start_y": 5.0 * rows + 250.0 * math.sin(bearing),
             "start_heading": bearing + math.pi / 2,
         }
     per_process = LaunchConfiguration("agents_per_process").perform(context)
@@ -133,6 +137,14 @@ def generate_launch_description() -> LaunchDescription:
                 description="rh, rh-paper, random or the path of a TorchScript .pt policy",
             ),
             DeclareLaunchArgument("seed", default_value="0", description="episode seed"),
+            DeclareLaunchArgument(
+                "map_size", default_value="100,100", description="ROWS,COLS cells of 10 m"
+            ),
+            DeclareLaunchArgument(
+                "ignitions",
+                default_value="0",
+                description="seeded 5 x 5 ignitions (0: the shape at the map's centre)",
+            ),
             DeclareLaunchArgument(
                 "agents_per_process",
                 default_value="",
