@@ -106,3 +106,42 @@ def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
         episode.advance()
     assert counts["whole"] == 1 and counts["tiles"] > 0
     np.testing.assert_array_equal(fuel.grid, episode.fuel)
+
+
+@pytest.mark.parametrize(
+    ("policy", "extra"),
+    [
+        ("rh", ["--aircraft", "4", "--comm", "range=400,loss=0.2"]),  # replicas, radio, catch-up
+        ("rh-belief", ["--aircraft", "2", "--sensor", "camera"]),  # the filtered belief
+    ],
+)
+def test_limited_links_and_cameras_fly_a_field_map_as_eval(
+    policy: str, extra: list[str], dds_env: dict[str, str]
+) -> None:
+    common = [
+        *("--policy", policy, "--seed", "17", "--map-size", "300,300", "--ignitions", "2"),
+        *("--duration", "10", "--json", *extra),
+    ]
+    run = subprocess.run(
+        [WILDFIRE, "run", "--fast", *common],
+        env=dds_env,
+        capture_output=True,
+        text=True,
+        timeout=280,
+        check=False,
+    )
+    assert run.returncode == 0, run.stderr
+    evaluated = subprocess.run(
+        [WILDFIRE, "eval", "--episodes", "1", *common],
+        env=dds_env,
+        capture_output=True,
+        text=True,
+        timeout=280,
+        check=False,
+    )
+    assert evaluated.returncode == 0, evaluated.stderr
+    summary, reference = json.loads(run.stdout), json.loads(evaluated.stdout)
+    assert summary["score"] == reference["scores"][0] and summary["decisions"] == 100
+    assert sum(v["dropped"] for v in summary["dropped_inputs"].values()) == 0
+    if "--comm" in extra:
+        assert summary["radio_bytes_per_s_per_aircraft"] <= 1024
