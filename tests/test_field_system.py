@@ -1,6 +1,7 @@
-"""A field map in the distributed system, recorded: the run equals ``wildfire eval``, and the
-bag, read back as any ROS reader would, rebuilds the belief of every tick (keyframes and
-deltas) and the fuel (whole map and tiles) exactly."""
+"""A field map in the distributed system, recorded (500 x 500, two fires, eight aircraft
+composed four to a process): the run equals ``wildfire eval``, and the bag, read back as any
+ROS reader would, rebuilds the belief of every tick (keyframes and deltas) and the fuel (whole
+map and tiles) exactly. Limited radio links and cameras fly a field map as eval does."""
 
 from __future__ import annotations
 
@@ -36,8 +37,8 @@ from wildfire_world.env import EnvConfig
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow, pytest.mark.timeout(300)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")
-FIELD = MapGeometry(300, 300)
-SEED, DURATION = 31, 30.0
+FIELD = MapGeometry(500, 500)
+SEED, DURATION, AIRCRAFT = 31, 10.0, 8
 
 
 def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
@@ -46,9 +47,9 @@ def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
     bag = tmp_path / "bag"
     done = subprocess.run(
         [
-            *(WILDFIRE, "run", "--policy", "rh", "--aircraft", "2", "--seed", str(SEED)),
-            *("--map-size", "300,300", "--ignitions", "2", "--duration", str(DURATION)),
-            *("--fast", "--json", "--record", str(bag)),
+            *(WILDFIRE, "run", "--policy", "rh", "--aircraft", str(AIRCRAFT), "--seed", str(SEED)),
+            *("--map-size", "500,500", "--ignitions", "2", "--duration", str(DURATION)),
+            *("--fast", "--json", "--record", str(bag), "--agents-per-process", "4"),
         ],
         env=dds_env,
         capture_output=True,
@@ -58,8 +59,12 @@ def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
     )
     assert done.returncode == 0, done.stderr
     summary = json.loads(done.stdout)
+    assert summary["map_size"] == [500, 500] and summary["ignitions"] == 2
+    assert len(summary["composed_agents"]) == 2  # eight agents in two processes
     ground = Landscape(FIELD, ignitions=2)
-    config = EnvConfig(n_aircraft=2, max_duration_s=DURATION, geometry=FIELD, landscape=ground)
+    config = EnvConfig(
+        n_aircraft=AIRCRAFT, max_duration_s=DURATION, geometry=FIELD, landscape=ground
+    )
     reference = evaluate(make_vec_policy("rh"), config, [SEED]).episodes[0]
     assert (summary["score"], summary["decisions"]) == (reference.score, reference.decisions)
 
@@ -97,7 +102,7 @@ def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
         np.testing.assert_array_equal(frame.grid, belief_grid(aggregator.burning))
         assert np.array_equal(frame.age_s, aggregator.age_s()), f"tick {tick}"
 
-    # The fuel: whole once (30 s is 12 fire steps), tiles after; the fire's own at the end.
+    # The fuel: whole once (10 s is 4 fire steps), tiles after; the fire's own at the end.
     wind = (float(summary["wind"][0]), float(summary["wind"][1]))
     episode = FireEpisode(
         SEED, "circular", wind, max_decisions=decisions_in(DURATION), ground=ground
