@@ -1,13 +1,16 @@
 """A field map in the distributed system, recorded (500 x 500, two fires, eight aircraft
-composed four to a process): the run equals ``wildfire eval``, and the bag, read back as any
-ROS reader would, rebuilds the belief of every tick (keyframes and deltas) and the fuel (whole
-map and tiles) exactly. Limited radio links and cameras fly a field map as eval does."""
+composed four to a process): the run equals ``wildfire eval``; a plain rclpy peer hearing it
+live and the bag read back rebuild the belief of every tick (keyframes and deltas), and the
+bag the fuel (whole map and tiles), exactly. Limited radio links and cameras fly a field map
+as eval does."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -41,10 +44,73 @@ FIELD = MapGeometry(500, 500)
 SEED, DURATION, AIRCRAFT = 31, 10.0, 8
 
 
+# A ROS 2 user's own reader: plain rclpy and its message packages, and the project's numpy
+# mirror (``wildfire_msgs_py.belief_delta``) to rebuild the belief of each tick it hears.
+_RCLPY_PEER = textwrap.dedent(
+    """
+    import sys, time
+    import numpy as np
+    import rclpy
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from nav_msgs.msg import OccupancyGrid
+    from sensor_msgs.msg import Image
+    from std_msgs.msg import Int32MultiArray
+    from wildfire_msgs_py.belief_delta import BeliefMirror, delta_from_msg
+    from wildfire_msgs_py.system_codecs import age_image_from_msg
+
+    out, last_stamp = sys.argv[1], int(sys.argv[2])
+    rclpy.init()
+    node = rclpy.create_node("field_peer")
+    qos = QoSProfile(
+        depth=100,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    )
+    mirror, frames = BeliefMirror(), {}
+
+    def stamp(msg):
+        return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+
+    def keep(done):
+        frames.update({f.stamp: f for f in done})
+
+    def grid(msg):
+        values = np.array(msg.data, dtype=np.int8).reshape(msg.info.height, msg.info.width)
+        keep(mirror.on_key_grid(stamp(msg), values))
+
+    node.create_subscription(OccupancyGrid, "/wildfire/belief", grid, qos)
+    node.create_subscription(
+        Image, "/wildfire/belief_age_exact",
+        lambda m: keep(mirror.on_key_ages(stamp(m), age_image_from_msg(m))), qos)
+    node.create_subscription(
+        Int32MultiArray, "/wildfire/belief_delta",
+        lambda m: keep(mirror.on_delta(delta_from_msg(m))), qos)
+    print("listening", flush=True)
+    end = time.monotonic() + 240
+    while time.monotonic() < end and last_stamp not in frames:
+        rclpy.spin_once(node, timeout_sec=0.1)
+    np.savez(out, stamps=np.array(sorted(frames)),
+             grids=np.stack([frames[s].grid for s in sorted(frames)]),
+             ages=np.stack([frames[s].age_s for s in sorted(frames)]))
+    """
+)
+
+
 def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
     tmp_path: Path, dds_env: dict[str, str]
 ) -> None:
     bag = tmp_path / "bag"
+    heard = tmp_path / "peer.npz"
+    last_stamp = decisions_in(DURATION) * contract.DECISION_PERIOD_NS
+    peer = None
+    if importlib.util.find_spec("rclpy") is not None:  # else: the Cyclone layer only, no peer
+        peer = subprocess.Popen(
+            [sys.executable, "-c", _RCLPY_PEER, str(heard), str(last_stamp)],
+            env={**dds_env, "WILDFIRE_ROS_BACKEND": "rclpy"},
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        assert peer.stdout is not None and peer.stdout.readline().strip() == "listening"
     done = subprocess.run(
         [
             *(WILDFIRE, "run", "--policy", "rh", "--aircraft", str(AIRCRAFT), "--seed", str(SEED)),
@@ -58,6 +124,7 @@ def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
         check=False,
     )
     assert done.returncode == 0, done.stderr
+    assert peer is None or peer.wait(timeout=60) == 0
     summary = json.loads(done.stdout)
     assert summary["map_size"] == [500, 500] and summary["ignitions"] == 2
     assert len(summary["composed_agents"]) == 2  # eight agents in two processes
@@ -93,7 +160,7 @@ def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
 
     # The belief of every tick, exactly: the visits of the bag merged from the ignition.
     aggregator = BeliefAggregator(ignite(SEED, "circular", ground).burning)
-    ticks = summary["decisions"]
+    ticks, truth = summary["decisions"], {}
     assert sorted(frames) == [t * contract.DECISION_PERIOD_NS for t in range(ticks + 1)]
     for tick in range(ticks + 1):
         if tick:
@@ -101,6 +168,15 @@ def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
         frame = frames[tick * contract.DECISION_PERIOD_NS]
         np.testing.assert_array_equal(frame.grid, belief_grid(aggregator.burning))
         assert np.array_equal(frame.age_s, aggregator.age_s()), f"tick {tick}"
+        truth[frame.stamp] = frame
+    if peer is not None:  # the rclpy peer heard the run live and rebuilt the same belief
+        with np.load(heard) as peer_frames:
+            stamps = [int(s) for s in peer_frames["stamps"]]
+            grids, ages = peer_frames["grids"], peer_frames["ages"]
+        assert len(stamps) >= ticks // 2 and last_stamp in stamps
+        for stamp, grid, age_s in zip(stamps, grids, ages, strict=True):
+            np.testing.assert_array_equal(grid, truth[stamp].grid)
+            assert np.array_equal(age_s, truth[stamp].age_s), f"peer, {stamp} ns"
 
     # The fuel: whole once (10 s is 4 fire steps), tiles after; the fire's own at the end.
     wind = (float(summary["wind"][0]), float(summary["wind"][1]))

@@ -109,6 +109,8 @@ def test_lockstep_under_a_flood_equals_evaluate(
             "/wildfire/episode wrong frame",
             "/wildfire/belief out of range",
             "/wildfire/belief_age_exact out of range",
+            "/wildfire/belief_delta out of range",
+            "/wildfire/belief_delta malformed",
             "/wildfire/score out of range",
         ],
         "belief_aggregator": [
@@ -119,7 +121,11 @@ def test_lockstep_under_a_flood_equals_evaluate(
             "/wildfire/belief_snapshot out of range",
         ],
         "fire_simulator": ["/wildfire/ack future", "/wildfire/ack wrong frame"],
-        "wildfire_run": ["/wildfire/fuel_map malformed", "/uav0/state_stamped duplicate"],
+        "wildfire_run": [
+            "/wildfire/fuel_map malformed",
+            "/wildfire/fuel_tiles out of range",
+            "/uav0/state_stamped duplicate",
+        ],
     }
     for node, keys in expected.items():
         counted = drops(summary, node)

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from wildfire_msgs_py import codecs, contract, radio_codec, system_codecs
+from wildfire_msgs_py import belief_delta, codecs, contract, grid_tiles, radio_codec, system_codecs
 from wildfire_msgs_py.stop_signals import interrupt_on_stop_signals
 from wildfire_ros.node_support import contract_publisher, contract_subscription
 from wildfire_ros.runtime import Node, SingleThreadedExecutor, rclpy
@@ -165,6 +165,25 @@ def _radio_bomb(k: int) -> Any:
     return msg
 
 
+def _delta(cells: list[int], words: slice | None = None) -> Callable[[int], Any]:
+    def build(_: int) -> Any:
+        n = len(cells)
+        delta = belief_delta.BeliefDelta(
+            3 * TICK_NS, 0, 3, np.array(cells), np.zeros(n, np.int64), np.zeros(n, np.int32)
+        )
+        msg = belief_delta.delta_to_msg(delta)
+        if words is not None:
+            msg.data = msg.data[words]
+        return msg
+
+    return build
+
+
+def _off_grid_tile(_: int) -> Any:
+    tile = grid_tiles.Tile(TICK_NS, 5, 7, np.zeros((grid_tiles.TILE, grid_tiles.TILE), np.int8))
+    return grid_tiles.tile_to_msg(tile)
+
+
 C = contract
 CASES: tuple[Case, ...] = (
     Case("fire map: data length", C.FIRE_MAP, _bad_length_grid),
@@ -178,6 +197,9 @@ CASES: tuple[Case, ...] = (
     Case("belief age: data length", C.BELIEF_AGE, _bad_length_grid),
     Case("exact ages: NaN", C.BELIEF_AGE_EXACT, _nan_ages),
     Case("exact ages: encoding", C.BELIEF_AGE_EXACT, _bad_encoding_ages),
+    Case("belief delta: cells off the map", C.BELIEF_DELTA, _delta([5, 10**7])),
+    Case("belief delta: truncated", C.BELIEF_DELTA, _delta([5, 6], slice(0, -1))),
+    Case("fuel tile: off the tile grid", C.FUEL_TILES, _off_grid_tile),
     Case("score: NaN", C.SCORE, lambda _: codecs.score_to_msg(math.nan)),
     Case("score: negative", C.SCORE, lambda _: codecs.score_to_msg(-1e9)),
     Case("state: NaN", C.STATE_STAMPED, _state([math.nan, 0, 0, 0])),
