@@ -192,7 +192,8 @@ def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
 @pytest.mark.parametrize(
     ("policy", "extra"),
     [
-        ("rh", ["--aircraft", "4", "--comm", "range=400,loss=0.2"]),  # replicas, radio, catch-up
+        # Replicas, radio and catch-up, on a fire pre-burnt to 10 ha.
+        ("rh", ["--aircraft", "4", "--comm", "range=400,loss=0.2", "--preburn-area", "100000"]),
         ("rh-belief", ["--aircraft", "2", "--sensor", "camera"]),  # the filtered belief
     ],
 )
