@@ -12,6 +12,7 @@ import subprocess
 import sys
 import textwrap
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -42,6 +43,16 @@ pytestmark = [pytest.mark.dds, pytest.mark.slow, pytest.mark.timeout(300)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")
 FIELD = MapGeometry(500, 500)
 SEED, DURATION, AIRCRAFT = 31, 10.0, 8
+
+
+def wildfire_json(args: list[str], env: dict[str, str]) -> dict[str, Any]:
+    """The JSON summary of a ``wildfire`` command that must succeed."""
+    done = subprocess.run(
+        [WILDFIRE, *args], env=env, capture_output=True, text=True, timeout=280, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    summary: dict[str, Any] = json.loads(done.stdout)
+    return summary
 
 
 # A ROS 2 user's own reader: plain rclpy and its message packages, and the project's numpy
@@ -111,21 +122,15 @@ def test_a_recorded_field_run_rebuilds_its_belief_and_fuel(
             text=True,
         )
         assert peer.stdout is not None and peer.stdout.readline().strip() == "listening"
-    done = subprocess.run(
+    summary = wildfire_json(
         [
-            *(WILDFIRE, "run", "--policy", "rh", "--aircraft", str(AIRCRAFT), "--seed", str(SEED)),
+            *("run", "--policy", "rh", "--aircraft", str(AIRCRAFT), "--seed", str(SEED)),
             *("--map-size", "500,500", "--ignitions", "2", "--duration", str(DURATION)),
             *("--fast", "--json", "--record", str(bag), "--agents-per-process", "4"),
         ],
-        env=dds_env,
-        capture_output=True,
-        text=True,
-        timeout=280,
-        check=False,
+        dds_env,
     )
-    assert done.returncode == 0, done.stderr
     assert peer is None or peer.wait(timeout=60) == 0
-    summary = json.loads(done.stdout)
     assert summary["map_size"] == [500, 500] and summary["ignitions"] == 2
     assert len(summary["composed_agents"]) == 2  # eight agents in two processes
     ground = Landscape(FIELD, ignitions=2)
@@ -204,25 +209,8 @@ def test_limited_links_and_cameras_fly_a_field_map_as_eval(
         *("--policy", policy, "--seed", "17", "--map-size", "300,300", "--ignitions", "2"),
         *("--duration", "10", "--json", *extra),
     ]
-    run = subprocess.run(
-        [WILDFIRE, "run", "--fast", *common],
-        env=dds_env,
-        capture_output=True,
-        text=True,
-        timeout=280,
-        check=False,
-    )
-    assert run.returncode == 0, run.stderr
-    evaluated = subprocess.run(
-        [WILDFIRE, "eval", "--episodes", "1", *common],
-        env=dds_env,
-        capture_output=True,
-        text=True,
-        timeout=280,
-        check=False,
-    )
-    assert evaluated.returncode == 0, evaluated.stderr
-    summary, reference = json.loads(run.stdout), json.loads(evaluated.stdout)
+    summary = wildfire_json(["run", "--fast", *common], dds_env)
+    reference = wildfire_json(["eval", "--episodes", "1", *common], dds_env)
     assert summary["score"] == reference["scores"][0] and summary["decisions"] == 100
     assert sum(v["dropped"] for v in summary["dropped_inputs"].values()) == 0
     if "--comm" in extra:
