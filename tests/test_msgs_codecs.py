@@ -146,7 +146,7 @@ def test_contract_names_and_lookup() -> None:
     assert contract.spec_for("/wildfire/fire_map") is contract.FIRE_MAP
     assert contract.spec_for("/uav7/unknown") is None
     names = [name for name, _ in contract.topics_for(2)]
-    assert "/diagnostics" in names and "/clock" in names and len(names) == 7 + 2 * 5
+    assert "/diagnostics" in names and "/clock" in names and len(names) == 8 + 2 * 5
     assert contract.FIRE_MAP.qos.transient_local and contract.FIRE_MAP.qos.depth == 1
     with pytest.raises(ValueError, match=">= 0"):
         contract.aircraft_namespace(-1)

@@ -48,6 +48,7 @@ from wildfire_bringup.agent_processes import describe_nodes
 from wildfire_bringup.monitor_node import RunMonitorNode
 from wildfire_bringup.partition_schedule import PartitionSchedule
 from wildfire_bringup.run_spec import LIVE_VIEW, RunSpec, node_commands, process_commands
+from wildfire_msgs_py.contract import DECISION_PERIOD_NS
 from wildfire_ros.network_defaults import apply_local_network_defaults
 from wildfire_testbed.hosts import VirtualHosts
 
@@ -192,13 +193,18 @@ class Launcher:
                 continue
             raise NodeFailure(f"{describe_nodes(nodes, name)} died ({how}): {why}")
 
-    def _drain(self, limit_s: float, quiet_s: float = 0.5) -> None:
+    def _drain(
+        self, limit_s: float, quiet_s: float = 0.5, until: Callable[[], bool] = lambda: True
+    ) -> None:
         """Take what is still in flight: the last belief, score and deadline messages, and the
         recorder's backlog on a loaded machine. Spins until nothing has arrived for
-        ``quiet_s`` (a ``spin_once`` that returns before its timeout did some work)."""
+        ``quiet_s`` (a ``spin_once`` that returns before its timeout did some work) and
+        ``until()`` holds, for ``limit_s`` at most."""
         period_s = 0.05
         start = last_work = time.monotonic()
-        while (now := time.monotonic()) - last_work < quiet_s and now - start < limit_s:
+        while (
+            (now := time.monotonic()) - last_work < quiet_s or not until()
+        ) and now - start < limit_s:
             self.executor.spin_once(timeout_sec=period_s)
             if time.monotonic() - now < 0.9 * period_s:
                 last_work = time.monotonic()
@@ -321,7 +327,16 @@ class Launcher:
                 self.flight_wall_s = time.monotonic() - first_tick
                 self.flight_cpu_s = self.children_cpu_s() - first_tick_cpu
             # Real-time nodes publish until they are stopped: never quiet, so bounded short.
-            self._drain(limit_s=5.0 if self.spec.lockstep else 0.5)
+            # In lockstep the final belief is on its way (the aggregator sends it before its
+            # last acknowledgement); a whole field map can take longer than a quiet half
+            # second on a loaded machine, and the recording should end with it.
+            monitor = self.monitor
+            final_ns = (monitor.status.tick if monitor.status else 0) * DECISION_PERIOD_NS
+            awaited = self.spec.lockstep and not self.spec.limited_links
+            self._drain(
+                limit_s=5.0 if self.spec.lockstep else 0.5,
+                until=lambda: not awaited or monitor.belief_stamp >= final_ns,
+            )
             if self.partitions is not None:
                 now = time.monotonic()
                 self.partitions.finish(now - (first_tick or now), now)
