@@ -135,3 +135,12 @@ def test_a_truncated_delta_is_malformed() -> None:
     msg.data = msg.data[:-1]  # type: ignore[attr-defined]
     with pytest.raises(Exception, match="do not hold 3 cells"):
         checked_belief_delta(msg, FIELD)
+
+
+def test_the_wire_ages_are_the_beliefs() -> None:
+    # The interface cannot import the belief package: its copy of the age clock must agree.
+    from wildfire_belief import belief
+    from wildfire_msgs_py import belief_delta
+
+    assert belief_delta.AGE_CAP_TICKS == belief.AGE_CAP_TICKS
+    assert belief_delta.TICKS_PER_S == belief.TICKS_PER_S
