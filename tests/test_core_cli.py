@@ -90,7 +90,6 @@ def test_eval_json(tmp_path):
         (["eval", "--comm", "loss=1.2"], "loss expected in [0, 1]"),
         (["report", "--comm", "power=5"], "keys range, loss, delay"),
         (["train", "--comm", "range=300,loss=x"], "--comm"),
-        (["run", "--comm", "range=300", "--realtime"], "lockstep only"),
         (["eval", "--sensor", "radar"], "--sensor"),
         (["eval", "--sensor", "camera", "--pixel-error", "0.5"], "[0, 0.5)"),
         (["eval", "--sensor", "camera", "--policy", "obs"], "takes obs images"),

@@ -91,3 +91,29 @@ def test_lockstep_under_limited_links_equals_evaluate(
     # Such a bag does not rebuild into transitions: the aircraft decided on their replicas.
     with pytest.raises(LearningError, match="limited radio links"):
         read_recording(bag, need_belief=True)
+
+
+def test_realtime_under_limited_links_catches_up_within_the_budget(
+    tmp_path: Path, dds_env: dict[str, str]
+) -> None:
+    """Real time: each agent applies the radio model to what arrives (send-tick poses, the
+    link's draw); after an outage every aircraft catches up, and pose and visits stay under
+    1 KB/s an aircraft (the catch-ups come on top, as in lockstep above)."""
+    comm, n, duration = "range=1500,loss=0.2,outage=5-7", 3, 15.0
+    result = subprocess.run(
+        [WILDFIRE, "run", "--realtime", "--policy", "belief", "--aircraft", str(n),
+         "--comm", comm, "--seed", "2000013", "--duration", str(duration), "--json",
+         "--log-dir", str(tmp_path / "logs")],
+        env=dds_env, capture_output=True, text=True, timeout=150,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(result.stdout)
+    assert summary["comm"] == comm and summary["decisions"] == int(duration * 10)
+    visits_and_pose = (
+        summary["radio_bytes_per_s_per_aircraft"]
+        - summary["radio_catch_up_bytes_per_s_per_aircraft"]
+    )
+    assert 0 < visits_and_pose <= RADIO_BYTES_PER_S_LIMIT
+    links = [summary["radio_links"][f"uav{k}"] for k in range(n)]
+    assert all(link["catch_ups"] >= 1 for link in links)
+    assert all(0 < link["convergence_s_max"] < 5.0 for link in links)

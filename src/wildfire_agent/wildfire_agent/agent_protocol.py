@@ -18,21 +18,32 @@ tick has used is forgotten and later copies are refused as replays.
 Real time: :meth:`AgentProtocol.on_timer` decides from the newest inputs once per 100 ms
 slot; a decision that ends after its slot counts as a missed deadline.
 
-Limited radio links (lockstep): the agent also sends its radio message of each tick, waits
-for every peer's instead of their stamped states, and decides on its own replica and heard
-peers (:class:`~wildfire_agent.aircraft_radio.AircraftRadio`), never on the aggregator's
-belief.
+Limited radio links: the agent also sends its radio message of each tick and decides on its
+own replica and heard peers (:class:`~wildfire_agent.aircraft_radio.AircraftRadio`), never
+on the aggregator's belief. In lockstep it waits for every peer's message of the tick instead
+of their stamped states; in real time each slot takes a tick (:mod:`wildfire_agent.radio_ticks`)
+and hears whatever has arrived and is due.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
-from typing import NamedTuple
+from collections.abc import Callable
 
 import numpy as np
 
 from wildfire_agent import dynamics
+from wildfire_agent.agent_outputs import (
+    MAX_BANK_RAD,
+    AckOut,
+    DeadlineOut,
+    Output,
+    RadioOut,
+    StateOut,
+    VisitOut,
+    state_vector,
+    team_state,
+)
 from wildfire_agent.aircraft_policy import AircraftPolicy
 from wildfire_agent.aircraft_radio import AircraftRadio, window_of
 from wildfire_agent.aircraft_sensor import AircraftSensor
@@ -43,6 +54,7 @@ from wildfire_agent.deadlines import (
 )
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
+from wildfire_agent.radio_ticks import RadioTicks
 from wildfire_msgs_py.belief_codec import belief_probability, believed_burning
 from wildfire_msgs_py.belief_delta import Frame
 from wildfire_msgs_py.codecs import NodeStatus, VisitWindow
@@ -69,74 +81,6 @@ REQUEST_ANSWER_PERIOD_S = 1.0
 """A belief snapshot (160 kB) goes out at most once a second, whoever asks."""
 BELIEFS_KEPT = 4
 """Beliefs (and ages) held by stamp: a belief policy needs the one of its tick, no older."""
-MAX_BANK_RAD = float(dynamics.MAX_BANK_STEPS * dynamics.BANK_STEP_RAD)
-
-
-class StateOut(NamedTuple):
-    """Own pose to publish (``state_stamped``, ``state``, ``odom``; after a decision also
-    ``bank_cmd`` and ``action``)."""
-
-    stamp: int
-    vector: np.ndarray
-    """x, y, heading, bank in radians (float64, 4)."""
-    bank_rad: float | None
-    """The commanded bank after a decision; None for the start pose."""
-    action: int | None = None
-    """The decision's integer action; None for the start pose."""
-
-
-class VisitOut(NamedTuple):
-    """What the sensor reported at the current pose: the visit window, or under camera
-    sensing one window per camera."""
-
-    stamp: int
-    windows: tuple[VisitWindow, ...]
-
-
-class RadioOut(NamedTuple):
-    """The radio message of a tick (limited links only)."""
-
-    stamp: int
-    message: RadioMessage
-
-
-class AckOut(NamedTuple):
-    """Tick done: acknowledge it on ``/wildfire/ack``."""
-
-    stamp: int
-
-
-class DeadlineOut(NamedTuple):
-    """Deadline statistics due on ``/diagnostics`` (the node adds its input status)."""
-
-    stamp: int
-    status: NodeStatus
-    radio: NodeStatus | None = None
-    """The radio links' status (limited links only)."""
-
-
-Output = StateOut | VisitOut | RadioOut | AckOut | DeadlineOut
-
-
-def state_vector(state: AircraftState) -> np.ndarray:
-    """x, y, heading, bank (rad) of a single aircraft, as sent on ``state_stamped``."""
-    return np.array(
-        [state.x_m[0], state.y_m[0], state.heading_rad[0], state.bank_rad[0]], dtype=np.float64
-    )
-
-
-def team_state(own: AircraftState, k: int, peers: Sequence[np.ndarray]) -> AircraftState:
-    """Poses of the whole team (fields (n,)): ``peers`` are the others' vectors, in order.
-
-    Peers send their bank in radians; it is rounded back to integer 5 degree steps. The own
-    bank comes from our state object (not via radians) so the decision stays bit-exact.
-    """
-    rows = [*peers[:k], state_vector(own), *peers[k:]]
-    team = np.stack(rows)
-    bank_steps = np.rint(team[:, 3] / dynamics.BANK_STEP_RAD).astype(np.int64)
-    x, y, heading = team[:, 0].copy(), team[:, 1].copy(), team[:, 2].copy()
-    bank_steps[k] = own.bank_steps[0]
-    return AircraftState(x, y, heading, bank_steps)
 
 
 class AgentProtocol:
@@ -159,8 +103,6 @@ class AgentProtocol:
         radio: AircraftRadio | None = None,
         sensor: AircraftSensor | None = None,
     ) -> None:
-        if radio is not None and mode is not Mode.LOCKSTEP:
-            raise AgentConfigError("comm: limited radio links fly in lockstep only so far")
         self.sensor = sensor or AircraftSensor("disc", 0.0, 0, k)
         if radio is not None and self.sensor.noisy:
             raise AgentConfigError("sensor: noisy sensing under limited radio links is not built")
@@ -199,6 +141,7 @@ class AgentProtocol:
         observation approach's camera images are made from."""
         self.received_tick = -1
         self.ready_sent = False
+        self.radio_ticks = RadioTicks(self.peer_states)
 
     @property
     def keeps_belief(self) -> bool:
@@ -257,6 +200,8 @@ class AgentProtocol:
         check_status_tick(status.tick, self.status_tick, lockstep, AHEAD_TICKS)
         self.running = True
         self.status_tick = max(self.status_tick, status.tick)
+        if not lockstep:
+            self.radio_ticks.on_status(status.tick, self.now_ns())
         out: list[Output] = []
         if status.final and self.final_tick is None:
             self.final_tick = status.tick
@@ -274,10 +219,17 @@ class AgentProtocol:
 
     def on_radio(self, j: int, stamp: int, message: RadioMessage) -> list[Output]:
         """Peer ``j``'s radio message (its window checked against its pose here)."""
+        assert self.radio is not None  # radio messages are subscribed to under limited links
+        received = (message, window_of(message, self.radio.geometry))
+        if self.mode is Mode.REALTIME:
+            self.radio_ticks.take(j, message.tick)
+            if self.radio.too_late(message):
+                raise RejectedMessage(DropReason.STALE, f"radio tick {message.tick}: too late")
+            self.radio.accept(*received)  # heard at a slot once its delay is over
+            return []
         inbox = self.radio_inbox[j]
         inbox.ceiling = self.ahead_limit_ns()
-        assert self.radio is not None  # radio messages are subscribed to under limited links
-        inbox.accept(stamp, (message, window_of(message, self.radio.geometry)))
+        inbox.accept(stamp, received)
         return self.advance()
 
     def on_belief(self, stamp: int, probability: np.ndarray) -> list[Output]:
@@ -325,19 +277,47 @@ class AgentProtocol:
         if self.slot_start is None:
             self.slot_start = now_s
         late = max(0.0, now_s - self.slot_start)
+        fire_stamp, burning = newest_fire
+        out: list[Output] = []
         team = self.latest_team()
         belief, ages = self.latest_belief()
+        if self.radio is not None:
+            team, radio_out = self.radio_slot(team, burning)
+            out += radio_out
+            belief, ages = self.radio.belief()
         if team is None or (self.policy.needs_belief and belief is None):
-            return []
-        fire_stamp, burning = newest_fire
+            return out
         action = self.policy.decide(team, burning, fire_stamp, belief, ages, self.reports)
         flown = self.fly(action, tick=0)
         self.reports = self.visit(burning)  # at the new pose: the next decision sees them
-        out: list[Output] = [flown, VisitOut(self.stamp(0), self.reports)]
+        self.window = self.reports[0]
+        out += [flown, VisitOut(self.stamp(0), self.reports)]
         self.stats.add(self.clock() - now_s, late)
         out += self.deadline(0)
         self.slot_start = next_slot_start(self.slot_start, self.clock())
         return out
+
+    def radio_slot(
+        self, team: AircraftState | None, burning: np.ndarray
+    ) -> tuple[AircraftState | None, list[Output]]:
+        """Real time, limited links: this slot's tick, its radio message, and the team heard.
+
+        The first slot starts the radio from the team's first poses (``team``, the stamped
+        states: the mission plan); until those are in the aircraft waits.
+        """
+        assert self.radio is not None
+        if self.radio_ticks.sent == 0:
+            if team is None:
+                return None, []
+            self.radio.start(team)
+        if self.window is None:  # the first slot: nothing visited yet
+            self.reports = self.visit(burning)
+            self.window = self.reports[0]
+        tick = self.radio_ticks.next(self.now_ns())
+        message = self.radio.message(tick, self.state, self.window)
+        self.radio.visit(tick, self.state, self.window)
+        self.radio.hear_due(tick)
+        return self.radio.team(self.state), [RadioOut(tick * DECISION_PERIOD_NS, message)]
 
     def latest_team(self) -> AircraftState | None:
         peers = []

@@ -7,15 +7,20 @@ aircraft at once; this class does it for aircraft ``k`` with the same functions,
 1. at tick ``t`` (``t >= 1``) the aircraft sends :meth:`AircraftRadio.message`: its pose, the
    burning bits of the cells it visits, and the catch-up digests and replies it owes
    (``wildfire_belief.catch_up``, composed from its replica as it stands);
-2. once every peer's message of tick ``t`` is in, :meth:`AircraftRadio.receive` merges its own
-   visit, decides with the links' draws of tick ``t`` which peer messages reach it (from the
-   positions at ``t``), holds those for ``delay`` ticks, and hears the ones due now: their
-   visits, poses, digests and replies; one that ends a gap asks for a catch-up;
-3. the decision reads :meth:`team` (peers heard, dead-reckoned) and :meth:`belief`.
+2. :meth:`AircraftRadio.visit` merges its own visit of tick ``t`` and keeps its position;
+   :meth:`AircraftRadio.accept` takes a peer's message of any tick, in any order;
+3. :meth:`AircraftRadio.hear_due` decides, for every message whose delay is over, whether it
+   reaches the aircraft: with the links' draw of its send tick and the positions of both
+   aircraft at that tick. Those that do are heard in the order of their send tick and
+   sender: their visits, poses, digests and replies; one that ends a gap asks for a catch-up;
+4. the decision reads :meth:`team` (peers heard, dead-reckoned) and :meth:`belief`.
 
-Every peer's message of a tick is received even when the model drops it: the model decides
-what the aircraft *hears*, the (reliable) middleware only carries it, so a lockstep run
-flies exactly what ``wildfire eval --comm`` flies.
+In lockstep every peer's message of a tick is received even when the model drops it: the
+model decides what the aircraft *hears*, the (reliable) middleware only carries it, so a
+lockstep run flies exactly what ``wildfire eval --comm`` flies (:meth:`receive` is steps 2
+and 3 for one tick). In real time the same steps run on the agent's slots: a message is
+decided when the receiver has flown its send tick, so arrival order, duplicates and lateness
+(up to :data:`POSITIONS_KEPT` ticks) change nothing but when it is heard.
 """
 
 from __future__ import annotations
@@ -41,6 +46,10 @@ from wildfire_msgs_py.radio_codec import (
     radio_to_bytes,
 )
 from wildfire_sim.grid import PAPER_MAP, MapGeometry, geometry_of
+
+POSITIONS_KEPT = 600
+"""Ticks of its own positions an aircraft keeps (60 s): a message sent longer ago is too late
+to decide (the delay is at most as long, ``radio.MAX_DELAY_DECISIONS``)."""
 
 
 def window_of(message: RadioMessage, geometry: MapGeometry = PAPER_MAP) -> VisitWindow:
@@ -130,8 +139,11 @@ class AircraftRadio:
         self.replica.reset([0], np.asarray(ignition, bool)[None])
         self.heard = HeardPoses(1, 1, n)
         self.draws = LinkDraws(1, n)
-        self.in_flight: dict[int, list[tuple[RadioMessage, VisitWindow]]] = {}
-        """Messages that will be heard, by the tick they are heard at."""
+        self.n = n
+        self.pending: list[tuple[RadioMessage, VisitWindow]] = []
+        """Messages accepted and not yet decided (their delay is not over)."""
+        self.positions: dict[int, tuple[float, float]] = {}
+        """Own positions by tick (the last :data:`POSITIONS_KEPT`): where the links are decided."""
         self.tick = 0
         """The last tick received."""
         self.queue = CatchUpQueue(retry_ticks(model.delay))
@@ -170,45 +182,76 @@ class AircraftRadio:
         window: VisitWindow,
         peers: Mapping[int, tuple[RadioMessage, VisitWindow]],
     ) -> None:
-        """Tick ``tick``: own visit, then every peer's message of the tick (checked windows)."""
+        """Lockstep tick ``tick``: own visit, then every peer's message of the tick."""
+        self.visit(tick, state, window)
+        for j in sorted(peers):
+            self.accept(*peers[j])
+        self.hear_due(tick)
+
+    def visit(self, tick: int, state: AircraftState, window: VisitWindow) -> None:
+        """The aircraft is at ``state`` (fields (1,)) at ``tick`` and visited ``window``."""
         self.tick = tick
         self.replica.now[0] = tick
         self._merge(window, tick, self.k)
-        team = {j: (m.x_m, m.y_m) for j, (m, _) in peers.items()}
-        team[self.k] = (float(state.x_m[0]), float(state.y_m[0]))
-        order = sorted(team)
-        x = np.array([[team[j][0] for j in order]])
-        y = np.array([[team[j][1] for j in order]])
-        draws = self.draws.at(np.array([self.seed]), np.array([tick]))
-        reach = delivered(self.model, draws, x, y, np.array([tick]))
-        for j, received in peers.items():
-            if reach[0, j, self.k]:
-                self.in_flight.setdefault(tick + self.model.delay, []).append(received)
-        for message, heard_window in self.in_flight.pop(tick, []):
-            self._merge(heard_window, message.tick, message.aircraft)
-            j = message.aircraft
-            returned = bool(link_returned(self.heard.tick[0, 0, j], message.tick))
-            if returned:
-                self.catch_ups.returned(j, tick)
-            self.queue.on_heard(j, tick, returned)
-            for digest in message.digests:
-                if digest.target == self.k:
-                    self.queue.on_digest(j, digest.block_ticks)
-            for reply in message.replies:
-                if reply.target == self.k:
-                    self.queue.on_reply(j)
-                    zero = np.zeros(reply.cells.size, dtype=np.int64)
-                    cells = reply.cells.astype(np.int64)
-                    self.replica.merge(zero, zero, cells, reply_keys(reply), reply.burning)
-                    self.catch_ups.merged(j, tick, reply.cells.size)
-            pose = AircraftState(
-                np.array([message.x_m]),
-                np.array([message.y_m]),
-                np.array([message.heading_rad]),
-                np.array([message.bank_steps], dtype=np.int64),
-            )
-            zero, sender = np.zeros(1, dtype=np.int64), np.array([message.aircraft])
-            self.heard.hear(zero, zero, sender, np.array([message.tick]), pose)
+        self.positions[tick] = (float(state.x_m[0]), float(state.y_m[0]))
+        while len(self.positions) > POSITIONS_KEPT:
+            self.positions.pop(min(self.positions))
+
+    def too_late(self, message: RadioMessage) -> bool:
+        """Whether ``message`` was sent before the oldest position kept (it cannot be decided)."""
+        return bool(self.positions) and message.tick < min(self.positions)
+
+    def accept(self, message: RadioMessage, window: VisitWindow) -> None:
+        """A peer's message (its window checked), heard by :meth:`hear_due` if it reaches us."""
+        self.pending.append((message, window))
+
+    def hear_due(self, tick: int) -> None:
+        """Decide and hear every accepted message whose delay is over at ``tick``."""
+        due = [p for p in self.pending if p[0].tick + self.model.delay <= tick]
+        if not due:
+            return
+        self.pending = [p for p in self.pending if p[0].tick + self.model.delay > tick]
+        for message, heard_window in sorted(due, key=lambda p: (p[0].tick, p[0].aircraft)):
+            if self.reaches(message):
+                self._hear(tick, message, heard_window)
+
+    def reaches(self, message: RadioMessage) -> bool:
+        """The radio model's verdict on ``message``: both positions at its send tick (ours: the
+        newest kept at or before it) and the link's draw of that tick."""
+        sent = message.tick
+        own = max((t for t in self.positions if t <= sent), default=min(self.positions))
+        x, y = np.zeros((1, self.n)), np.zeros((1, self.n))
+        x[0, message.aircraft], y[0, message.aircraft] = message.x_m, message.y_m
+        x[0, self.k], y[0, self.k] = self.positions[own]
+        draws = self.draws.at(np.array([self.seed]), np.array([sent]))
+        reach = delivered(self.model, draws, x, y, np.array([sent]))
+        return bool(reach[0, message.aircraft, self.k])
+
+    def _hear(self, tick: int, message: RadioMessage, heard_window: VisitWindow) -> None:
+        self._merge(heard_window, message.tick, message.aircraft)
+        j = message.aircraft
+        returned = bool(link_returned(self.heard.tick[0, 0, j], message.tick))
+        if returned:
+            self.catch_ups.returned(j, tick)
+        self.queue.on_heard(j, tick, returned)
+        for digest in message.digests:
+            if digest.target == self.k:
+                self.queue.on_digest(j, digest.block_ticks)
+        for reply in message.replies:
+            if reply.target == self.k:
+                self.queue.on_reply(j)
+                zero = np.zeros(reply.cells.size, dtype=np.int64)
+                cells = reply.cells.astype(np.int64)
+                self.replica.merge(zero, zero, cells, reply_keys(reply), reply.burning)
+                self.catch_ups.merged(j, tick, reply.cells.size)
+        pose = AircraftState(
+            np.array([message.x_m]),
+            np.array([message.y_m]),
+            np.array([message.heading_rad]),
+            np.array([message.bank_steps], dtype=np.int64),
+        )
+        zero, sender = np.zeros(1, dtype=np.int64), np.array([message.aircraft])
+        self.heard.hear(zero, zero, sender, np.array([message.tick]), pose)
 
     def _merge(self, window: VisitWindow, tick: int, aircraft: int) -> None:
         cell, burning = window_cells(window, self.geometry)
@@ -226,4 +269,4 @@ class AircraftRadio:
         return self.replica.burning[0, 0], self.replica.age_s()[0, 0]
 
 
-__all__ = ["AircraftRadio", "CatchUpLog", "window_cells", "window_of"]
+__all__ = ["POSITIONS_KEPT", "AircraftRadio", "CatchUpLog", "window_cells", "window_of"]

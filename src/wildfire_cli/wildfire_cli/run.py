@@ -262,8 +262,6 @@ def build_spec(args: argparse.Namespace) -> Any:
             "and --preburn-area; rasters fly in eval, report and train (the nodes would read "
             "your file, and it does not travel on the wire yet)"
         )
-    if not config.comm.ideal and args.realtime:
-        raise UserError(f"--comm {config.comm}: limited radio links fly in lockstep only so far")
     scenario = draw_scenario(args.seed, config)
     start = np.stack([scenario.start.x_m, scenario.start.y_m, scenario.start.heading_rad], axis=1)
     return RunSpec(
