@@ -144,3 +144,21 @@ def test_the_wire_ages_are_the_beliefs() -> None:
 
     assert belief_delta.AGE_CAP_TICKS == belief.AGE_CAP_TICKS
     assert belief_delta.TICKS_PER_S == belief.TICKS_PER_S
+
+
+def test_a_belief_snapshot_of_an_oblong_map_reads_back_and_a_wrong_size_is_refused() -> None:
+    """A restarted aggregator recovers from an agent's snapshot on any map, square or not."""
+    from wildfire_msgs_py.system_codecs import BeliefSnapshot, snapshot_to_msg
+    from wildfire_msgs_py.wire_checks import checked_snapshot
+
+    rng = np.random.default_rng(2)
+    believed = rng.random(FIELD.shape) < 0.2
+    ages = rng.integers(0, 2550, FIELD.shape).astype(np.float32) / np.float32(10)
+    msg = _wire(snapshot_to_msg(BeliefSnapshot(12.5, 340.0, believed, ages)))
+    back = checked_snapshot(msg, FIELD)
+    assert (back.time_s, back.score) == (12.5, 340.0)
+    assert np.array_equal(back.believed, believed) and np.array_equal(back.age_s, ages)
+    with pytest.raises(RejectedMessage):
+        checked_snapshot(msg, MapGeometry(160, 120))
+    with pytest.raises(RejectedMessage):
+        checked_snapshot(msg, MapGeometry(100, 100))

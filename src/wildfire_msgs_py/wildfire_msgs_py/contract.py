@@ -268,7 +268,8 @@ BELIEF_SNAPSHOT = TopicSpec(
     "std_msgs/msg/Float64MultiArray",
     LATCHED_HISTORY,
     False,
-    "an agent's copy of the shared belief: [time_s, score, believed (100x100), age_s (100x100)]",
+    "an agent's copy of the shared belief: [time_s, score, believed (rows x cols), age_s (rows x "
+    "cols)], the grids' shape in the layout's rows and cols dimensions",
 )
 RADIO = TopicSpec(
     "radio",

@@ -177,22 +177,35 @@ def snapshot_to_msg(snapshot: BeliefSnapshot, *, message_class: Any = None) -> A
     values = np.concatenate([[snapshot.time_s, snapshot.score], believed, ages])
     msg = _message("std_msgs/msg/Float64MultiArray", message_class)
     dim = _message("std_msgs/msg/MultiArrayDimension")
-    side = int(np.asarray(snapshot.believed).shape[0])
-    dim.label = f"time_s,score,believed[{side}x{side}],age_s[{side}x{side}]"
+    rows, cols = np.asarray(snapshot.believed).shape
+    dim.label = f"time_s,score,believed[{rows}x{cols}],age_s[{rows}x{cols}]"
     dim.size, dim.stride = values.size, values.size
-    msg.layout.dim = [dim]
+    # The grids' shape (a field map need not be square): two more dimensions, rows and cols.
+    dims = [dim]
+    for label, size, stride in (("rows", rows, rows * cols), ("cols", cols, cols)):
+        grid_dim = _message("std_msgs/msg/MultiArrayDimension")
+        grid_dim.label, grid_dim.size, grid_dim.stride = label, int(size), int(stride)
+        dims.append(grid_dim)
+    msg.layout.dim = dims
     msg.data = array.array("d", values.tobytes())
     return msg
 
 
 def snapshot_from_msg(msg: Any) -> BeliefSnapshot:
-    """``Float64MultiArray`` -> :class:`BeliefSnapshot` (square grid)."""
+    """``Float64MultiArray`` -> :class:`BeliefSnapshot`: grids of the layout's ``rows`` and
+    ``cols`` dimensions (square ones when the layout has none)."""
     values = np.asarray(msg.data, dtype=np.float64)
     cells = (values.size - 2) // 2
-    side = round(float(np.sqrt(cells)))
-    if values.size < 4 or side * side != cells or 2 + 2 * cells != values.size:
-        raise MessageFieldError(f"belief snapshot: {values.size} values do not hold 2 square grids")
-    grid = (side, side)
+    sizes = {d.label: int(d.size) for d in msg.layout.dim[1:]}
+    if "rows" in sizes and "cols" in sizes:
+        grid = (sizes["rows"], sizes["cols"])
+    else:
+        side = round(float(np.sqrt(max(cells, 0))))
+        grid = (side, side)
+    if values.size < 4 or grid[0] * grid[1] != cells or 2 + 2 * cells != values.size:
+        raise MessageFieldError(
+            f"belief snapshot: {values.size} values do not hold 2 grids of {grid[0]}x{grid[1]}"
+        )
     return BeliefSnapshot(
         time_s=float(values[0]),
         score=float(values[1]),
