@@ -183,8 +183,15 @@ def test_a_peer_is_seen_where_it_was_heard_dead_reckoned_and_oneself_exactly() -
     assert team.x_m[0, 0, 0] == 1.0 and team.bank_steps[0, 1, 1] == 2
 
 
-def run_env(comm: str, seeds: list[int], decisions: int) -> tuple[WildfireVecEnv, list[dict]]:
-    config = EnvConfig(observation="belief", reward="belief", comm=CommModel.parse(comm))
+def run_env(
+    comm: str, seeds: list[int], decisions: int, geometry: MapGeometry | None = None
+) -> tuple[WildfireVecEnv, list[dict]]:
+    config = EnvConfig(
+        observation="belief",
+        reward="belief",
+        comm=CommModel.parse(comm),
+        **({"geometry": geometry} if geometry is not None else {}),
+    )
     env = WildfireVecEnv(config, len(seeds))
     observations = [env.reset(seeds)]
     rng = np.random.default_rng(7)
@@ -298,6 +305,43 @@ def test_after_an_outage_the_catch_up_restores_the_shared_belief_in_every_replic
     early, _ = run_env("range=1e9,outage=2-8", [3, 4], 81)
     assert early.radio is not None
     assert not np.array_equal(early.radio.replicas.key[:, 0], early.radio.replicas.key[:, 1])
+
+
+def test_on_an_oblong_field_map_the_catch_up_restores_every_cell() -> None:
+    """A map of 78 000 cells (more than 16-bit cell indices hold) and not square: digests
+    keep 100 blocks, replies name every cell, and the replicas end as the union again."""
+    field = MapGeometry(300, 260)
+    ideal, _ = run_env("ideal", [5], 140, field)
+    cut, _ = run_env("range=1e9,outage=2-8", [5], 140, field)
+    assert cut.radio is not None
+    for k in range(2):
+        assert np.array_equal(cut.radio.replicas.burning[:, k], ideal.belief.burning)
+        assert np.array_equal(cut.radio.replicas.age_s()[:, k], ideal.belief.age_s())
+
+
+def test_a_field_maps_digest_and_reply_travel_whole() -> None:
+    from wildfire_belief.catch_up import digest_of, make_reply, missing_visits
+    from wildfire_msgs_py.radio_codec import Digest, RadioMessage, radio_from_bytes, radio_to_bytes
+
+    rng = np.random.default_rng(4)
+    key = visit_key(rng.integers(0, 3000, (1000, 730)), rng.integers(0, 3, (1000, 730)))
+    burning = rng.random((1000, 730)) < 0.5
+    digest = digest_of(key)
+    assert digest.shape == (100,)
+    # Every block is the oldest last visit of its band of 100 x 73 (or 72) cells.
+    assert digest[0] == (key[:100, :73] >> 6).min() and digest[99] == (key[900:, 657:] >> 6).min()
+    older = np.zeros(100, dtype=np.uint16)
+    reply = make_reply(2, key, burning, older)
+    cells, _, _ = missing_visits(key, burning, older, 2)
+    assert reply.cells.size == cells.size and int(reply.cells.max()) > 2**16
+    message = RadioMessage(
+        9, 1, 1.0, 2.0, 0.0, 0, np.zeros(3, np.uint8), (Digest(0, digest),), (reply,)
+    )
+    back = radio_from_bytes(radio_to_bytes(message))
+    assert np.array_equal(back.digests[0].block_ticks, digest)
+    assert np.array_equal(back.replies[0].cells, reply.cells)
+    assert np.array_equal(back.replies[0].ticks, reply.ticks)
+    assert np.array_equal(back.bits, message.bits)
 
 
 def test_catch_up_sections_read_back_and_a_reply_that_lies_is_malformed() -> None:

@@ -4,8 +4,10 @@ See docs/model.md, Radio links. A replica that hears a peer again after a gap of
 ``CATCH_UP_GAP_TICKS`` (it missed at least that many of the peer's messages, or never heard
 it) asks for what it missed:
 
-1. its next radio message carries a **digest** for that peer: per block of 10 x 10 cells,
-   the oldest of the block's last visits in its replica (:func:`digest_of`);
+1. its next radio message carries a **digest** for that peer: per block of a 10 x 10 grid of
+   blocks over the map (10 x 10 cells each on the paper's map, bands of ``rows / 10`` by
+   ``cols / 10`` cells on any other, so a digest is 100 numbers whatever the map), the
+   oldest of the block's last visits in its replica (:func:`digest_of`);
 2. the peer, once it hears the digest, answers in its next message with the **missing
    visits**: every cell of its own replica whose visit is newer than the digest's tick for
    the cell's block, with its key, but for the asker's own visits (:func:`missing_visits`).
@@ -29,8 +31,8 @@ from wildfire_msgs_py.radio_codec import MAX_SECTIONS, Digest, Reply
 
 CATCH_UP_GAP_TICKS = 10
 """A link returns when the heard message follows the previous heard one by more than 1 s."""
-BLOCK = 10
-"""Side in cells of a digest block."""
+BLOCKS_PER_SIDE = 10
+"""A digest's blocks per side of the map: 100 blocks in all (``radio_codec.DIGEST_BLOCKS``)."""
 DIGEST_TICK_CAP = 2**16 - 1
 """Digest ticks are 16 bits: a later tick reads as the cap, which only adds to the reply."""
 
@@ -40,13 +42,22 @@ def link_returned(previous_tick: np.ndarray | int, sent_tick: np.ndarray | int) 
     return np.asarray(sent_tick) - np.asarray(previous_tick) > CATCH_UP_GAP_TICKS
 
 
+def block_of_cells(shape: tuple[int, ...]) -> np.ndarray:
+    """(H, W) int64: the digest block of every cell, row band ``row * 10 // H`` times 10 plus
+    column band ``col * 10 // W`` (on the paper's 100 x 100 map, blocks of 10 x 10 cells)."""
+    rows, cols = int(shape[-2]), int(shape[-1])
+    band_row = np.arange(rows, dtype=np.int64) * BLOCKS_PER_SIDE // rows
+    band_col = np.arange(cols, dtype=np.int64) * BLOCKS_PER_SIDE // cols
+    return band_row[:, None] * BLOCKS_PER_SIDE + band_col[None, :]
+
+
 def digest_of(key: np.ndarray) -> np.ndarray:
     """(100,) uint16: per block of a replica's (H, W) keys, the oldest last-visit tick of
     its cells (0 while a cell was never visited)."""
-    size = key.shape[-1]
     ticks = np.clip(key >> KEY_SHIFT, 0, DIGEST_TICK_CAP)
-    blocks = ticks.reshape(size // BLOCK, BLOCK, size // BLOCK, BLOCK).min(axis=(1, 3))
-    return blocks.reshape(-1).astype(np.uint16)
+    blocks = np.full(BLOCKS_PER_SIDE**2, DIGEST_TICK_CAP, dtype=np.int64)
+    np.minimum.at(blocks, block_of_cells(key.shape).reshape(-1), ticks.reshape(-1))
+    return blocks.astype(np.uint16)
 
 
 def missing_visits(
@@ -55,12 +66,9 @@ def missing_visits(
     """Cells of a replica (H, W) newer than ``digest`` says aircraft ``asker`` holds: flat
     cell indices, their visit keys and burning values (in cell order). The asker's own
     visits are left out: its replica merged each of them the moment it made it."""
-    size = key.shape[-1]
-    per_cell = np.repeat(
-        np.repeat(digest.reshape(size // BLOCK, size // BLOCK), BLOCK, 0), BLOCK, 1
-    )
+    per_cell = np.asarray(digest, np.int64)[block_of_cells(key.shape).reshape(-1)]
     flat = key.reshape(-1)
-    newer = (flat >> KEY_SHIFT > per_cell.reshape(-1)) & (flat & (KEY_AIRCRAFT - 1) != asker)
+    newer = (flat >> KEY_SHIFT > per_cell) & (flat & (KEY_AIRCRAFT - 1) != asker)
     cells = np.flatnonzero(newer)
     return cells, flat[cells], burning.reshape(-1)[cells]
 
@@ -70,7 +78,7 @@ def make_reply(target: int, key: np.ndarray, burning: np.ndarray, digest: np.nda
     cells, keys, values = missing_visits(key, burning, digest, target)
     return Reply(
         target,
-        cells.astype(np.uint16),
+        cells.astype(np.uint32),
         (keys >> KEY_SHIFT).astype(np.uint32),
         (keys & (KEY_AIRCRAFT - 1)).astype(np.uint8),
         values,
@@ -132,7 +140,7 @@ class CatchUpQueue:
 
 
 __all__ = [
-    "BLOCK",
+    "BLOCKS_PER_SIDE",
     "CATCH_UP_GAP_TICKS",
     "DIGEST_TICK_CAP",
     "CatchUpQueue",

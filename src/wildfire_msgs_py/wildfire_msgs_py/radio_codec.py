@@ -25,13 +25,15 @@ the window and checks the number of bits (``wildfire_agent.aircraft_radio``).
 
 Catch-up (rare: when a link returns after a gap) rides in the same messages:
 
-* a **digest** for peer ``target``: u8 target, then for each of the 100 blocks of 10 x 10
-  cells the newest visit tick the sender's replica holds there (u16, 0 for none): 201 bytes;
-* a **reply** to peer ``target``: u8 target, u16 count, u16 size, then ``size`` bytes of zlib
+* a **digest** for peer ``target``: u8 target, then for each of the 100 blocks of a 10 x 10
+  grid of blocks over the map (``wildfire_belief.catch_up``) the oldest last visit tick the
+  sender's replica holds there (u16, 0 for none): 201 bytes on any map;
+* a **reply** to peer ``target``: u8 target, u32 count, u32 size, then ``size`` bytes of zlib
   (level 9) over the ``count`` cells in index order: their flat indices as differences from
-  the previous one (u16), their visit ticks as differences likewise (i32), their aircraft (u8)
-  and their burning bits (packed). Neighbouring cells were mostly visited together, so the
-  differences repeat: about 0.8 byte per cell, against 7 raw.
+  the previous one (u32: a field map has millions of cells), their visit ticks as differences
+  likewise (i32), their aircraft (u8) and their burning bits (packed). Neighbouring cells
+  were mostly visited together, so the differences repeat: about 0.8 byte per cell, against
+  9 raw.
 """
 
 from __future__ import annotations
@@ -48,9 +50,11 @@ from wildfire_msgs_py.errors import MessageFieldError
 
 HEADER = struct.Struct("<IBb3dB")
 """tick, aircraft, bank_steps, x_m, y_m, heading_rad, sections."""
+REPLY_HEADER = struct.Struct("<BII")
+"""A reply's target, cell count and compressed size."""
 MAX_TICK = 2**32 - 1
 DIGEST_BLOCKS = 100
-"""Blocks of a digest: the 100 x 100 map in 10 x 10 blocks of 10 x 10 cells."""
+"""Blocks of a digest: any map in a 10 x 10 grid of blocks (10 x 10 cells on the paper's)."""
 MAX_SECTIONS = 15
 """Digests (and replies) one message carries at most; more wait for the next."""
 
@@ -68,7 +72,7 @@ class Reply(NamedTuple):
 
     target: int
     cells: np.ndarray
-    """Flat cell indices (uint16)."""
+    """Flat cell indices (uint32)."""
     ticks: np.ndarray
     """Visit tick of each cell (uint32)."""
     aircraft: np.ndarray
@@ -119,7 +123,7 @@ def radio_to_bytes(message: RadioMessage) -> bytes:
         parts += [bytes([digest.target]), np.asarray(digest.block_ticks, "<u2").tobytes()]
     for reply in message.replies:
         payload = zlib.compress(_reply_payload(reply), 9)
-        parts += [struct.pack("<BHH", reply.target, len(reply.cells), len(payload)), payload]
+        parts += [REPLY_HEADER.pack(reply.target, len(reply.cells), len(payload)), payload]
     parts.append(np.asarray(message.bits, dtype=np.uint8).tobytes())
     return b"".join(parts)
 
@@ -129,7 +133,7 @@ def _reply_payload(reply: Reply) -> bytes:
     ticks = np.asarray(reply.ticks, np.int64)
     return b"".join(
         [
-            np.diff(cells, prepend=0).astype("<u2").tobytes(),
+            np.diff(cells, prepend=0).astype("<u4").tobytes(),
             np.diff(ticks, prepend=0).astype("<i4").tobytes(),
             np.asarray(reply.aircraft, "u1").tobytes(),
             np.packbits(np.asarray(reply.burning, bool)).tobytes(),
@@ -140,7 +144,7 @@ def _reply_payload(reply: Reply) -> bytes:
 def _reply_from_payload(target: int, count: int, compressed: bytes) -> Reply:
     """A reply from its compressed payload; one that inflates to another size is malformed
     (and inflating stops at the expected size: no zip bomb gets further)."""
-    expected = 7 * count + (count + 7) // 8
+    expected = 9 * count + (count + 7) // 8
     try:
         payload = zlib.decompressobj().decompress(compressed, expected + 1)
     except zlib.error as error:
@@ -148,13 +152,13 @@ def _reply_from_payload(target: int, count: int, compressed: bytes) -> Reply:
     if len(payload) != expected:
         raise MessageFieldError(f"catch-up reply of {len(payload)} bytes for {count} cells")
     reader = _Reader(payload, 0)
-    cells = np.cumsum(reader.array(count, "<u2").astype(np.int64))
+    cells = np.cumsum(reader.array(count, "<u4").astype(np.int64))
     ticks = np.cumsum(reader.array(count, "<i4").astype(np.int64))
     aircraft = reader.array(count, "u1")
     burning = np.unpackbits(reader.array((count + 7) // 8, "u1"), count=count).astype(bool)
-    if count and (ticks.min() < 0 or ticks.max() >= 2**32 or cells.max() >= 2**16):
+    if count and (ticks.min() < 0 or ticks.max() >= 2**32 or cells.max() >= 2**32):
         raise MessageFieldError("catch-up reply with cells or ticks out of range")
-    return Reply(target, cells.astype(np.uint16), ticks.astype(np.uint32), aircraft, burning)
+    return Reply(target, cells.astype(np.uint32), ticks.astype(np.uint32), aircraft, burning)
 
 
 class _Reader:
@@ -186,7 +190,7 @@ def radio_from_bytes(data: bytes) -> RadioMessage:
     )
     replies = []
     for _ in range(sections & 0xF):
-        target, count, size = struct.unpack("<BHH", reader.take(5))
+        target, count, size = REPLY_HEADER.unpack(reader.take(REPLY_HEADER.size))
         replies.append(_reply_from_payload(target, count, reader.take(size)))
     bits = np.frombuffer(data, dtype=np.uint8, offset=reader.offset).copy()
     return RadioMessage(tick, aircraft, x, y, heading, bank, bits, digests, tuple(replies))
