@@ -215,3 +215,30 @@ def test_limited_links_and_cameras_fly_a_field_map_as_eval(
     assert sum(v["dropped"] for v in summary["dropped_inputs"].values()) == 0
     if "--comm" in extra:
         assert summary["radio_bytes_per_s_per_aircraft"] <= 1024
+
+
+def test_fuel_and_ignition_rasters_fly_in_the_system_as_in_eval(
+    tmp_path: Path, dds_env: dict[str, str]
+) -> None:
+    """A land-cover raster (CORINE classes, firebreaks, water) and an ignition raster: the
+    command reads them once, every node reads the resolved ground file, and the run equals
+    eval, under limited links too (the replicas start from the raster's ignition)."""
+    from wildfire_sim.demo_raster import landcover_codes
+
+    np.save(tmp_path / "cover.npy", landcover_codes(240, 260, seed=3))
+    ignition = np.zeros((240, 260), dtype=np.uint8)
+    ignition[100:106, 90:96] = ignition[150:154, 170:174] = 1
+    np.save(tmp_path / "ignition.npy", ignition)
+    common = [
+        *("--policy", "rh", "--seed", "23", "--aircraft", "3", "--comm", "range=500,loss=0.2"),
+        *("--fuel-map", str(tmp_path / "cover.npy"), "--fuel-classes", "corine"),
+        *("--ignition-map", str(tmp_path / "ignition.npy"), "--duration", "10", "--json"),
+    ]
+    logs = tmp_path / "logs"
+    summary = wildfire_json(["run", "--fast", "--log-dir", str(logs), *common], dds_env)
+    reference = wildfire_json(["eval", "--episodes", "1", *common], dds_env)
+    assert summary["score"] == reference["scores"][0] and summary["decisions"] == 100
+    assert summary["fuel_map"] == reference["fuel_map"]
+    assert summary["ignition_cells"] == reference["ignition_cells"] > 0
+    assert sum(v["dropped"] for v in summary["dropped_inputs"].values()) == 0
+    assert (logs / "ground.npz").is_file()

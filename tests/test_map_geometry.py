@@ -127,14 +127,12 @@ def test_cli_map_size_flies_in_eval_and_bad_sizes_get_one_line(tmp_path: Path) -
     bad = _wildfire("eval", "--map-size", "49,100")
     assert bad.returncode == 2
     assert bad.stderr.count("\n") == 1 and "--map-size" in bad.stderr, bad.stderr
-    # The distributed system flies the map and seeded ignitions, not yet a user's raster.
+    # The distributed system reads a user's raster as eval does: a bad one, one line.
     ignition = tmp_path / "ignition.npy"
-    np.save(ignition, np.pad(np.ones((5, 5), dtype=np.uint8), (47, 48)))
+    np.save(ignition, np.zeros((100, 100), dtype=np.uint8))
     refused = _wildfire("run", "--ignition-map", str(ignition), "--duration", "1")
     assert refused.returncode == 2
-    assert refused.stderr.count("\n") == 1 and "rasters fly in eval" in refused.stderr, (
-        refused.stderr
-    )
+    assert refused.stderr.count("\n") == 1 and "no burning cell" in refused.stderr, refused.stderr
 
 
 def test_ego_images_read_a_window_equal_to_the_whole_map() -> None:

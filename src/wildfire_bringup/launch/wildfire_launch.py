@@ -8,7 +8,9 @@ Foxglove live view on that 127.0.0.1 port. ``agents_per_process:=K`` composes th
 most K to a process (``agent_group``, one ``--node`` section per agent), by the rule of
 ``wildfire run --agents-per-process`` (:mod:`wildfire_bringup.agent_processes`); left empty,
 one agent per process up to 8 aircraft. ``map_size:=R,C`` and ``ignitions:=K`` fly a field
-map (every node gets the ground parameters of ``wildfire_sim.ground_parameters``).
+map (every node gets the ground parameters of ``wildfire_sim.ground_parameters``);
+``ground_file:=PATH`` adds fuel and ignition rasters, resolved (the ``ground.npz`` that
+``wildfire run --fuel-map ... --log-dir D`` writes to D; ``wildfire_sim.ground_file``).
 """
 
 from __future__ import annotations
@@ -66,7 +68,10 @@ def _nodes(context, *_args, **_kwargs):
     )
     rows, cols = (int(v) for v in LaunchConfiguration("map_size").perform(context).split(","))
     ignitions = int(LaunchConfiguration("ignitions").perform(context))
+    ground_file = LaunchConfiguration("ground_file").perform(context)
     ground = {"map_rows": rows, "map_cols": cols, "ignitions": ignitions}
+    if ground_file:
+        ground["ground_file"] = os.path.abspath(ground_file)
     common = {"mode": "realtime", "seed": seed, **ground}
     nodes = [
         Node(
@@ -144,6 +149,12 @@ def generate_launch_description() -> LaunchDescription:
                 "ignitions",
                 default_value="0",
                 description="seeded 5 x 5 ignitions (0: the shape at the map's centre)",
+            ),
+            DeclareLaunchArgument(
+                "ground_file",
+                default_value="",
+                description="fuel and ignition rasters resolved by wildfire run (its log "
+                "folder's ground.npz; empty: none)",
             ),
             DeclareLaunchArgument(
                 "agents_per_process",

@@ -47,7 +47,13 @@ from wildfire_belief.sensors import sensing_text
 from wildfire_bringup.agent_processes import describe_nodes
 from wildfire_bringup.monitor_node import RunMonitorNode
 from wildfire_bringup.partition_schedule import PartitionSchedule
-from wildfire_bringup.run_spec import LIVE_VIEW, RunSpec, node_commands, process_commands
+from wildfire_bringup.run_spec import (
+    LIVE_VIEW,
+    RunSpec,
+    node_commands,
+    process_commands,
+    with_ground_file,
+)
 from wildfire_msgs_py.contract import DECISION_PERIOD_NS
 from wildfire_ros.network_defaults import apply_local_network_defaults
 from wildfire_testbed.hosts import VirtualHosts
@@ -107,7 +113,7 @@ class Launcher:
     """Runs one episode of the distributed system (see the module docstring)."""
 
     def __init__(self, spec: RunSpec) -> None:
-        self.spec = spec
+        self.spec = spec = with_ground_file(spec)
         self.env = child_environment(spec.extra_env)
         self.log_dir = spec.log_dir or Path(tempfile.mkdtemp(prefix="wildfire-run-"))
         self.log_dir.mkdir(parents=True, exist_ok=True)
@@ -358,4 +364,5 @@ __all__ = [
     "child_environment",
     "node_commands",
     "process_commands",
+    "with_ground_file",
 ]

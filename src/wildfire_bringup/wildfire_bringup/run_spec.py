@@ -11,16 +11,20 @@ the launcher starts, by process name: the same, except that composed agents shar
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass, field
+import tempfile
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
 from wildfire_belief.sensors import noisy
 from wildfire_bringup.agent_processes import agent_groups, composed_commands, process_layout
 from wildfire_bringup.monitor_protocol import REPORTER
 from wildfire_sim.defaults import EPISODE_DEFAULTS
+from wildfire_sim.ground_file import FILE_NAME as GROUND_FILE
+from wildfire_sim.ground_file import has_rasters, write_ground
 from wildfire_sim.ground_parameters import ground_values
 from wildfire_sim.landscape import PAPER_LANDSCAPE, Landscape
 from wildfire_testbed.hosts import place_nodes
@@ -75,8 +79,11 @@ class RunSpec:
     """Agent nodes per process, at most (composed agents); None: one per process up to 8
     aircraft, at most 8 agent processes above (:mod:`wildfire_bringup.agent_processes`)."""
     ground: Landscape = PAPER_LANDSCAPE
-    """The map and the starting fire (``--map-size``, ``--ignitions``): every node's ground
-    parameters (:mod:`wildfire_sim.ground_parameters`)."""
+    """The map and the starting fire (``--map-size``, ``--ignitions``, the rasters): every
+    node's ground parameters (:mod:`wildfire_sim.ground_parameters`)."""
+    ground_file: tuple[Path, str] | None = None
+    """The ground file holding ``ground``'s rasters and its SHA-256 (the launcher writes it,
+    :mod:`wildfire_sim.ground_file`); None without rasters."""
     preburn_area_m2: float = 0.0
     """With > 0, the fire pre-burns until it has touched this area (``--preburn-area``)."""
 
@@ -106,16 +113,38 @@ class RunSpec:
         )
 
 
+def with_ground_file(spec: RunSpec) -> RunSpec:
+    """``spec`` with its rasters (fuel, ignition) written to a ground file in its log folder,
+    made if it has none: the user's rasters are read once, by the command, and every node
+    reads the resolved arrays (:mod:`wildfire_sim.ground_file`). Without rasters: ``spec``."""
+    if not has_rasters(spec.ground) or spec.ground_file is not None:
+        return spec
+    log_dir = spec.log_dir or Path(tempfile.mkdtemp(prefix="wildfire-run-"))
+    log_dir.mkdir(parents=True, exist_ok=True)
+    path = (log_dir / GROUND_FILE).resolve()
+    return replace(spec, log_dir=log_dir, ground_file=(path, write_ground(spec.ground, path)))
+
+
+def _reads_as_number(text: str) -> bool:
+    """Whether a YAML reader (PyYAML, or rcl's stricter-typed one) may take ``text`` as no
+    string: a number (``1e5`` included), a boolean or null."""
+    return not isinstance(yaml.safe_load(text or "''"), str) or (
+        bool(text) and set(text) <= set("0123456789.eE+-")
+    )
+
+
 def _param_args(params: dict[str, Any]) -> list[str]:
     args: list[str] = []
     for name, value in params.items():
-        text = (
-            repr(value)
-            if isinstance(value, float)
-            else str(value).lower()
-            if isinstance(value, bool)
-            else str(value)
-        )
+        if isinstance(value, float):
+            text = repr(value)
+        elif isinstance(value, bool):
+            text = str(value).lower()
+        elif isinstance(value, str) and _reads_as_number(value):
+            # ROS reads a -p value as YAML: a digest of digits would arrive as a number.
+            text = repr(value)
+        else:
+            text = str(value)
         args += ["-p", f"{name}:={text}"]
     return args
 
@@ -124,7 +153,7 @@ def node_commands(
     spec: RunSpec, agent_states: dict[int, np.ndarray] | None = None
 ) -> dict[str, list[str]]:
     """Command line of every node, by node name (``fire_simulator``, ``uav0``, ...)."""
-    ground = ground_values(spec.ground, EPISODE_DEFAULTS.border_cells)
+    ground = ground_values(spec.ground, EPISODE_DEFAULTS.border_cells, spec.ground_file)
     common = {"seed": spec.seed, "shape": spec.shape, "mode": spec.mode, **ground}
     sensing = {"sensor": spec.sensor, "pixel_error": spec.pixel_error} if spec.noisy else {}
     commands = {
@@ -207,4 +236,4 @@ def process_commands(
     return composed_commands(node_commands(spec, agent_states), spec.processes())
 
 
-__all__ = ["LIVE_VIEW", "RunSpec", "node_commands", "process_commands"]
+__all__ = ["LIVE_VIEW", "RunSpec", "node_commands", "process_commands", "with_ground_file"]

@@ -239,7 +239,7 @@ def check_faults(args: argparse.Namespace, hosts: int) -> tuple[Any, tuple[Any, 
 
 
 def build_spec(args: argparse.Namespace) -> Any:
-    from wildfire_bringup.launcher import RunSpec
+    from wildfire_bringup.launcher import RunSpec, with_ground_file
     from wildfire_cli.run_params import check_params_file
     from wildfire_sim.shapes import Shape
     from wildfire_world.config import EnvConfig, draw_scenario
@@ -255,40 +255,37 @@ def build_spec(args: argparse.Namespace) -> Any:
     ).validate()
     policy = resolve_policy(args.policy, config)
     ground = config.ground
-    if ground.fuel is not None or ground.ignition_map is not None:
-        # A node would have to read the user's file; on virtual hosts it may not be there.
-        raise UserError(
-            "--fuel-map/--ignition-map: the distributed system flies --map-size, --ignitions "
-            "and --preburn-area; rasters fly in eval, report and train (the nodes would read "
-            "your file, and it does not travel on the wire yet)"
-        )
     scenario = draw_scenario(args.seed, config)
     start = np.stack([scenario.start.x_m, scenario.start.y_m, scenario.start.heading_rad], axis=1)
-    return RunSpec(
-        n_aircraft=args.aircraft,
-        policy=policy,
-        shape=shape.value,
-        wind=(float(scenario.wind[0]), float(scenario.wind[1])),
-        seed=args.seed,
-        duration_s=args.duration,
-        start=start,
-        lockstep=not args.realtime,
-        record_dir=check_record_dir(args.record) if args.record else None,
-        respawn=args.respawn,
-        log_dir=args.log_dir,
-        params_file=check_params_file(args.params_file) if args.params_file else None,
-        agent_backend=args.agent_backend,
-        hosts=hosts,
-        netem=netem,
-        partitions=partitions,
-        comm=str(config.comm),
-        sensor=config.sensor,
-        pixel_error=config.pixel_error,
-        wind_filter=config.wind_filter,
-        foxglove_port=check_foxglove_port(args.foxglove, hosts),
-        agents_per_process=args.agents_per_process,
-        ground=ground,
-        preburn_area_m2=config.preburn_area_m2,
+    # Rasters go to the nodes in a ground file, written now: a parameters file is checked
+    # against every node's command line, the file's path included.
+    return with_ground_file(
+        RunSpec(
+            n_aircraft=args.aircraft,
+            policy=policy,
+            shape=shape.value,
+            wind=(float(scenario.wind[0]), float(scenario.wind[1])),
+            seed=args.seed,
+            duration_s=args.duration,
+            start=start,
+            lockstep=not args.realtime,
+            record_dir=check_record_dir(args.record) if args.record else None,
+            respawn=args.respawn,
+            log_dir=args.log_dir,
+            params_file=check_params_file(args.params_file) if args.params_file else None,
+            agent_backend=args.agent_backend,
+            hosts=hosts,
+            netem=netem,
+            partitions=partitions,
+            comm=str(config.comm),
+            sensor=config.sensor,
+            pixel_error=config.pixel_error,
+            wind_filter=config.wind_filter,
+            foxglove_port=check_foxglove_port(args.foxglove, hosts),
+            agents_per_process=args.agents_per_process,
+            ground=ground,
+            preburn_area_m2=config.preburn_area_m2,
+        )
     )
 
 

@@ -4,21 +4,24 @@ The fire simulator, the belief aggregator and every agent declare :data:`GROUND_
 (what ``ros2 param describe`` shows) beside their own, and :func:`ground_of` turns the values
 into the :class:`~wildfire_sim.landscape.Landscape` the environment flies. So every node
 sizes its maps and checks its inputs against the same geometry, and starts from the same
-ignition (:func:`wildfire_sim.ignition.ignite`), without reading any file: a run spread
-over virtual hosts needs nothing on their disks but the code.
+ignition (:func:`wildfire_sim.ignition.ignite`).
 
-Fuel and ignition rasters (``--fuel-map``, ``--ignition-map``) are files, not parameters:
-the distributed system does not fly them yet (``wildfire run`` says so in one line).
+Fuel and ignition rasters (``--fuel-map``, ``--ignition-map``) do not fit in parameters:
+``ground_file`` names the resolved rasters that ``wildfire run`` writes
+(:mod:`wildfire_sim.ground_file`) and ``ground_sha256`` the digest every node checks them
+against. Without a ground file a node reads nothing from disk.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 from wildfire_ros.node_support import ParamSpec
 from wildfire_sim.defaults import EPISODE_DEFAULTS
 from wildfire_sim.grid import MAX_SIDE, MIN_SIDE, PAPER_MAP, MapGeometry
+from wildfire_sim.ground_file import has_rasters, read_ground
 from wildfire_sim.landscape import MAX_IGNITIONS, PAPER_LANDSCAPE, Landscape
 
 GROUND_PARAMETERS = (
@@ -38,25 +41,42 @@ GROUND_PARAMETERS = (
         0,
         49,
     ),
+    ParamSpec(
+        "ground_file",
+        "",
+        "fuel and ignition rasters resolved by wildfire run (ground.npz in its log folder; "
+        "'': the paper's fuel and the shape or seeded ignitions)",
+    ),
+    ParamSpec("ground_sha256", "", "SHA-256 the ground file must have ('': not checked)"),
 )
 
 
 def ground_of(p: Mapping[str, Any]) -> Landscape:
     """The landscape of the ground parameter values ``p`` (of :data:`GROUND_PARAMETERS`)."""
     geometry = MapGeometry(p["map_rows"], p["map_cols"])
+    if p["ground_file"]:
+        return read_ground(p["ground_file"], p["ground_sha256"], geometry, p["ignitions"])
     if geometry.is_paper and not p["ignitions"]:
         return PAPER_LANDSCAPE
     return Landscape(geometry, ignitions=p["ignitions"])
 
 
-def ground_values(ground: Landscape, border_cells: int) -> dict[str, Any]:
-    """The parameter values of ``ground`` (what the launcher passes every node)."""
-    return {
+def ground_values(
+    ground: Landscape, border_cells: int, file: tuple[Path, str] | None = None
+) -> dict[str, Any]:
+    """The parameter values of ``ground`` (what the launcher passes every node); ``file``:
+    the ground file holding its rasters and that file's SHA-256."""
+    values: dict[str, Any] = {
         "map_rows": ground.geometry.rows,
         "map_cols": ground.geometry.cols,
         "ignitions": ground.ignitions,
         "border_cells": border_cells,
     }
+    if file is not None:
+        values |= {"ground_file": str(file[0]), "ground_sha256": file[1]}
+    elif has_rasters(ground):
+        raise ValueError("a ground with rasters travels in a ground file (write_ground)")
+    return values
 
 
 __all__ = ["GROUND_PARAMETERS", "ground_of", "ground_values"]

@@ -1,0 +1,118 @@
+"""A run's ground as one file the nodes read: the fuel and ignition rasters, already resolved.
+
+``wildfire run --fuel-map F [--fuel-classes T] [--ignition-map I]`` reads the user's rasters
+once, in the command's process (rasterio, class tables, resampling to 10 m, the crop to
+``--map-size``), and writes what came out, per cell of the map, to ``ground.npz`` in the run's
+log folder: the fuel ranges (int8), the spread multipliers (float32, when the table gives
+any) and the cells burning at the start (bool), with the raster's name and SHA-256 for the
+summaries. Each node then gets the file's path and the SHA-256 of its bytes as parameters
+(``ground_file``, ``ground_sha256``; :mod:`wildfire_sim.ground_parameters`), reads it with
+numpy alone and refuses to start, in one line, if the bytes are not the ones the launcher
+wrote. So every node flies the very arrays that ``wildfire eval`` flies, and a node on
+another host that was given a different copy says so instead of flying another fire.
+
+Why a file and not a topic: every node sizes its protocol, and the aggregator and the radio
+replicas start their belief, from the ground before they join the graph. A latched topic
+would make each of them wait on the fire simulator before it could be built. The run's
+virtual hosts share this machine's disk; on real hosts, copy the file beside the code (as a
+map server's YAML is).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from wildfire_msgs_py.errors import ParameterError
+from wildfire_msgs_py.map_geometry import MapGeometry
+from wildfire_sim.fuel_map import FuelMap
+from wildfire_sim.landscape import Landscape
+
+FILE_NAME = "ground.npz"
+"""The ground file's name in a run's log folder."""
+
+
+def has_rasters(ground: Landscape) -> bool:
+    """Whether ``ground`` holds what its parameters cannot say (a fuel or ignition raster)."""
+    return ground.fuel is not None or ground.ignition_map is not None
+
+
+def write_ground(ground: Landscape, path: Path) -> str:
+    """Write the rasters of ``ground`` to ``path`` (an ``.npz``); return its bytes' SHA-256."""
+    arrays: dict[str, Any] = {}  # (numpy's stub types savez's keywords as its options)
+    fuel = ground.fuel
+    if fuel is not None:
+        arrays |= {
+            "fuel_low": fuel.low,
+            "fuel_high": fuel.high,
+            "fuel_source": np.array(fuel.source),
+            "fuel_sha256": np.array(fuel.sha256),
+        }
+        if fuel.spread is not None:
+            arrays["fuel_spread"] = fuel.spread
+    if ground.ignition_map is not None:
+        arrays["ignition"] = ground.ignition_map
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **arrays)
+    data = buffer.getvalue()
+    path.write_bytes(data)
+    return hashlib.sha256(data).hexdigest()
+
+
+@lru_cache(maxsize=4)
+def read_ground(path: str, sha256: str, geometry: MapGeometry, ignitions: int) -> Landscape:
+    """The landscape of a ground file, checked against the run's ``sha256`` and ``geometry``
+    (a node's ``ground_file`` and ``ground_sha256`` parameters; cached, so that agents
+    composed in one process read it once). Raises :class:`ParameterError` in one line."""
+    what = f"parameter ground_file {path!r}"
+    try:
+        data = Path(path).read_bytes()
+    except OSError as error:
+        raise ParameterError(f"{what}: cannot be read ({error.strerror})") from None
+    digest = hashlib.sha256(data).hexdigest()
+    if sha256 and digest != sha256:
+        raise ParameterError(
+            f"{what}: SHA-256 {digest[:12]}..., expected {sha256[:12]}... (ground_sha256): "
+            "not the file this run was launched with"
+        )
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as archive:
+            arrays = {name: archive[name] for name in archive.files}
+    except (OSError, ValueError) as error:
+        raise ParameterError(f"{what}: not a ground file ({error})") from None
+    expected: dict[str, type[np.generic]] = {
+        "fuel_low": np.int8,
+        "fuel_high": np.int8,
+        "fuel_spread": np.float32,
+        "ignition": np.bool_,
+    }
+    for name, dtype in expected.items():
+        array = arrays.get(name)
+        if array is not None and (array.dtype != dtype or array.shape != geometry.shape):
+            raise ParameterError(
+                f"{what}: {name} is {array.dtype} {array.shape}, expected {np.dtype(dtype)} "
+                f"{geometry.shape} (map_rows, map_cols)"
+            )
+    fuel = None
+    if "fuel_low" in arrays and "fuel_high" in arrays:
+        fuel = FuelMap(
+            arrays["fuel_low"],
+            arrays["fuel_high"],
+            arrays.get("fuel_spread"),
+            str(arrays.get("fuel_source", path)),
+            str(arrays.get("fuel_sha256", digest)),
+        )
+    ignition = arrays.get("ignition")
+    if fuel is None and ignition is None:
+        raise ParameterError(f"{what}: holds neither fuel (fuel_low, fuel_high) nor ignition")
+    if ignition is not None and ignitions:
+        raise ParameterError(f"{what}: an ignition map and ignitions={ignitions}: give one")
+    return Landscape(geometry, fuel, ignition, ignitions)
+
+
+__all__ = ["FILE_NAME", "has_rasters", "read_ground", "write_ground"]
