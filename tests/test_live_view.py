@@ -19,6 +19,7 @@ from foxglove.messages import SceneUpdate
 from foxglove_client import FoxgloveClient
 from wildfire_bringup.live_view import (
     AIRCRAFT_CHANNEL,
+    BELIEF_FEEDS,
     FOOTPRINTS_CHANNEL,
     PATH_PERIOD_NS,
     SCORE_CHANNEL,
@@ -30,7 +31,13 @@ from wildfire_bringup.live_view import (
 )
 from wildfire_bringup.live_view_layout import layout_text
 from wildfire_msgs_py.camera_codec import footprints_to_msg
-from wildfire_msgs_py.codecs import VisitWindow, grid_to_msg, pose_to_odometry
+from wildfire_msgs_py.belief_delta import Frame
+from wildfire_msgs_py.codecs import (
+    VisitWindow,
+    belief_age_display,
+    grid_to_msg,
+    pose_to_odometry,
+)
 from wildfire_msgs_py.errors import MessageFieldError
 
 REPO = Path(__file__).resolve().parents[1]
@@ -178,3 +185,38 @@ def test_the_shipped_layout_is_the_one_the_code_builds() -> None:
     for topic in (FIRE, "/wildfire/belief", AIRCRAFT_CHANNEL, FOOTPRINTS_CHANNEL):
         assert f'"{topic}"' in text
     assert f"{SCORE_CHANNEL}.score" in text
+
+
+def test_the_belief_shows_every_tick_from_its_frames(view: tuple[LiveView, int]) -> None:
+    """The belief's channels are fed from the keyframes and deltas (every tick), not from the
+    keyframes alone: each frame the mirror completes is logged, placed as the maps are."""
+    live, port = view
+    belief, ages = "/wildfire/belief", "/wildfire/belief_age"
+    rng = np.random.default_rng(8)
+    frames = [
+        Frame(
+            stamp=(25 + t) * 100_000_000,
+            grid=rng.integers(0, 101, (60, 80)).astype(np.int8),
+            age_s=rng.uniform(0.0, 300.0, (60, 80)).astype(np.float32),
+        )
+        for t in range(3)
+    ]
+    assert not live.belief_frame(frames[0])  # nobody watches: nothing built
+    with FoxgloveClient(f"ws://127.0.0.1:{port}") as client:
+        client.wait_for_channels({belief, ages}, 10.0)
+        _watch(client, live, [belief, ages], set(BELIEF_FEEDS))
+        assert "/wildfire/belief_age" not in live.wanted()  # the display keyframe is not read
+        assert all(live.belief_frame(frame) for frame in frames)
+        got: dict[str, list[Any]] = {belief: [], ages: []}
+        while min(len(v) for v in got.values()) < len(frames):
+            item = client.receive(10.0)
+            got[item.topic].append(item)
+    for frame, shown, aged in zip(frames, got[belief], got[ages], strict=True):
+        assert shown.log_time_ns == aged.log_time_ns == frame.stamp
+        grid = shown.message
+        assert (grid.column_count, grid.cell_size.x, grid.pose.position.x) == (80, 10.0, 0.0)
+        assert grid.fields[0].name == "probability" and aged.message.fields[0].name == "age"
+        values = np.frombuffer(grid.data, dtype=np.int8).reshape(-1, 80)
+        np.testing.assert_array_equal(values, frame.grid)
+        age_values = np.frombuffer(aged.message.data, dtype=np.int8).reshape(-1, 80)
+        np.testing.assert_array_equal(age_values, belief_age_display(frame.age_s))

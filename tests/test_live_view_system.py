@@ -93,6 +93,12 @@ def test_realtime_run_is_watched_live(tmp_path: Path, dds_env: dict[str, str]) -
     assert fire.fields[0].name == "burning" and fire.timestamp.seconds >= 1
     probability = grid_array(got[BELIEF][-1].message)
     assert probability.min() >= 0 and probability.max() <= 100
+    # Every tick's belief, rebuilt from keyframes and deltas: most stamps lie between the
+    # keyframes (one a fire step, 2.5 s), and the grid is the run's map.
+    stamps = {item.log_time_ns for item in got[BELIEF]}
+    between = {s for s in stamps if s % 2_500_000_000}
+    assert len(between) >= 50, sorted(stamps)
+    assert probability.shape == (100, 100)
     ids = {e.id for update in got[AIRCRAFT] for e in update.message.entities}
     assert {"uav0", "uav1", "uav0/path", "uav1/path"} <= ids
     outlines = [line for u in got[FOOTPRINTS] for e in u.message.entities for line in e.lines]

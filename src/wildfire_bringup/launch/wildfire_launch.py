@@ -123,7 +123,9 @@ def _nodes(context, *_args, **_kwargs):
                 package="wildfire_bringup",
                 executable="live_view",
                 name="live_view",
-                parameters=[{"port": int(port), "n_aircraft": n}],
+                parameters=[
+                    {"port": int(port), "n_aircraft": n, "map_rows": rows, "map_cols": cols}
+                ],
                 output="screen",
             )
         )

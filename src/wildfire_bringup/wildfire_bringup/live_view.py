@@ -18,8 +18,11 @@ channel                          schema                    what
 ``/wildfire/score``              ``wildfire.Score`` (JSON)  ``score`` and ``time_s``, to plot
 ===============================  ========================  ==================================
 
-A grid takes its size, cell size and origin from the message it converts
-(``info.width``/``height``/``resolution``/``origin``), so any map size shows as it is.
+The fire grid takes its size, cell size and origin from the message it converts
+(``info.width``/``height``/``resolution``/``origin``), so any map size shows as it is. The
+belief and its ages show every tick: the node mirrors the belief's keyframes (one a fire
+step) and the deltas between (:mod:`wildfire_msgs_py.belief_inputs`) and logs each whole
+frame the mirror completes, placed as the contract places its maps.
 The score is one number, for which Foxglove has no well-known message: a JSON channel with a
 two-field schema.
 
@@ -39,6 +42,7 @@ from collections import Counter, deque
 from typing import TYPE_CHECKING, Any
 
 import foxglove
+import numpy as np
 from foxglove.channels import FrameTransformsChannel, GridChannel, SceneUpdateChannel
 from foxglove.messages import (
     ArrowPrimitive,
@@ -60,10 +64,13 @@ from foxglove.messages import (
     Vector3,
 )
 
-from wildfire_msgs_py.codecs import grid_from_msg, odometry_to_pose
+from wildfire_msgs_py.belief_delta import Frame
+from wildfire_msgs_py.codecs import belief_age_display, grid_from_msg, odometry_to_pose
 from wildfire_msgs_py.contract import (
     BELIEF,
     BELIEF_AGE,
+    BELIEF_AGE_EXACT,
+    BELIEF_DELTA,
     CAMERA_FOOTPRINTS,
     FIRE_MAP,
     MAP_FRAME,
@@ -72,6 +79,7 @@ from wildfire_msgs_py.contract import (
     aircraft_namespace,
     base_link_frame,
 )
+from wildfire_msgs_py.map_geometry import CELL_SIZE_M
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -89,6 +97,9 @@ TF_CHANNEL = "/tf"
 SCORE_CHANNEL = "/wildfire/score"
 GRID_FIELDS = {FIRE_MAP.name: "burning", BELIEF.name: "probability", BELIEF_AGE.name: "age"}
 """Grid channel -> the name of its one int8 field (the OccupancyGrid's value)."""
+BELIEF_FEEDS = (BELIEF.name, BELIEF_AGE_EXACT.name, BELIEF_DELTA.name)
+"""What the belief's two channels are fed from: its keyframes and the deltas between, so
+that they show every tick's belief (:meth:`LiveView.belief_frame`), not one a fire step."""
 SCORE_SCHEMA = {
     "title": "wildfire.Score",
     "type": "object",
@@ -162,18 +173,43 @@ def grid_from_occupancy(msg: Any, field: str) -> Grid:
     whose data does not fill width x height raises :class:`MessageFieldError`.
     """
     info = msg.info
-    width = int(info.width)
-    data = grid_from_msg(msg).tobytes()
-    return Grid(
-        timestamp=timestamp(stamp_of(msg.header)),
+    return _int8_grid(
+        grid_from_msg(msg),
+        stamp_of(msg.header),
+        field,
         frame_id=msg.header.frame_id or MAP_FRAME,
         pose=_pose(info.origin),
+        resolution=float(info.resolution),
+    )
+
+
+def map_grid(values: np.ndarray, stamp_ns: int, field: str) -> Grid:
+    """A whole map's int8 ``[row, col]`` values -> ``foxglove.Grid``, placed as the contract
+    places its maps (origin at the map's south-west corner, 10 m cells, frame ``map``)."""
+    pose = Pose(position=Vector3(x=0.0, y=0.0, z=0.0), orientation=_level(0.0))
+    return _int8_grid(values, stamp_ns, field, frame_id=MAP_FRAME, pose=pose)
+
+
+def _int8_grid(
+    values: np.ndarray,
+    stamp_ns: int,
+    field: str,
+    *,
+    frame_id: str,
+    pose: Pose,
+    resolution: float = CELL_SIZE_M,
+) -> Grid:
+    width = int(values.shape[1])
+    return Grid(
+        timestamp=timestamp(stamp_ns),
+        frame_id=frame_id,
+        pose=pose,
         column_count=width,
-        cell_size=Vector2(x=float(info.resolution), y=float(info.resolution)),
+        cell_size=Vector2(x=resolution, y=resolution),
         row_stride=width,
         cell_stride=1,
         fields=[PackedElementField(name=field, offset=0, type=PackedElementFieldNumericType.Int8)],
-        data=data,
+        data=np.ascontiguousarray(values, dtype=np.int8).tobytes(),
     )
 
 
@@ -306,7 +342,9 @@ class LiveView:
     def wanted(self) -> set[str]:
         """The run's topics that feed a channel a client subscribed to (``odom`` and
         ``camera/footprints`` for every aircraft): what the node subscribes to now."""
-        topics = {topic for topic, channel in self.grids.items() if channel.has_sinks()}
+        topics = {FIRE_MAP.name} if self.grids[FIRE_MAP.name].has_sinks() else set()
+        if self.grids[BELIEF.name].has_sinks() or self.grids[BELIEF_AGE.name].has_sinks():
+            topics.update(BELIEF_FEEDS)
         if self.score_channel.has_sinks():
             topics.add(SCORE.name)
         if self.aircraft.has_sinks() or self.transforms.has_sinks():
@@ -320,8 +358,22 @@ class LiveView:
     def _tick(self, stamp_ns: int) -> None:
         self.clock_ns = max(self.clock_ns, stamp_ns)
 
+    def belief_frame(self, frame: Frame) -> bool:
+        """One tick's whole belief (rebuilt from its keyframe and delta) on the belief and
+        age channels that a client watches; True if logged."""
+        self._tick(frame.stamp)
+        logged = False
+        for topic in (BELIEF.name, BELIEF_AGE.name):
+            channel = self.grids[topic]
+            if channel.has_sinks():
+                values = frame.grid if topic == BELIEF.name else belief_age_display(frame.age_s)
+                channel.log(map_grid(values, frame.stamp, GRID_FIELDS[topic]), log_time=frame.stamp)
+                self.logged[topic] += 1
+                logged = True
+        return logged
+
     def grid(self, topic: str, msg: Any) -> bool:
-        """Log a map (fire, belief, ages) on its grid channel; True if logged."""
+        """Log a map message (the fire's) on its grid channel; True if logged."""
         stamp_ns = stamp_of(msg.header)
         self._tick(stamp_ns)
         channel = self.grids[topic]
@@ -383,6 +435,7 @@ class LiveView:
 
 __all__ = [
     "AIRCRAFT_CHANNEL",
+    "BELIEF_FEEDS",
     "DEFAULT_PORT",
     "FOOTPRINTS_CHANNEL",
     "GRID_FIELDS",
@@ -396,6 +449,7 @@ __all__ = [
     "body_transform",
     "footprints_entity",
     "grid_from_occupancy",
+    "map_grid",
     "path_entity",
     "stamp_of",
     "timestamp",

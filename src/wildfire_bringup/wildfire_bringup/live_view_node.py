@@ -1,6 +1,7 @@
 """Live view node: serves the running system to Foxglove over its WebSocket protocol.
 
-Feeds the contract's maps (fire, belief, belief age), every aircraft's odometry and camera
+Feeds the fire map, every tick's belief and ages (mirrored from the belief's keyframes and
+deltas, checked against ``map_rows`` x ``map_cols``), every aircraft's odometry and camera
 footprints and the score to :class:`~wildfire_bringup.live_view.LiveView`, on a foxglove-sdk
 WebSocket server bound to 127.0.0.1 (``port``, 8765 by default). Open Foxglove, "Open
 connection", ``ws://localhost:8765``, and import the shipped layout
@@ -22,7 +23,9 @@ from typing import Any
 
 from wildfire_bringup.live_view import DEFAULT_PORT, HOST, LiveView
 from wildfire_msgs_py import contract
+from wildfire_msgs_py.belief_inputs import belief_inputs
 from wildfire_msgs_py.input_guard import InputGuard
+from wildfire_msgs_py.map_geometry import MapGeometry
 from wildfire_msgs_py.wire_checks import checked_score
 from wildfire_ros.node_support import (
     ParamSpec,
@@ -31,6 +34,7 @@ from wildfire_ros.node_support import (
     run_node,
 )
 from wildfire_ros.runtime import Node
+from wildfire_sim.ground_parameters import GROUND_PARAMETERS
 
 NAME = "live_view"
 WATCH_PERIOD_S = 0.2
@@ -40,6 +44,7 @@ sim time races or stands still, and a viewer is served either way."""
 PARAMETERS = (
     ParamSpec("port", DEFAULT_PORT, f"WebSocket port on {HOST} (Foxglove's default)", 1, 65535),
     ParamSpec("n_aircraft", 2, "aircraft uav0..uav{n-1} to show", 1, 64),
+    *(spec for spec in GROUND_PARAMETERS if spec.name in ("map_rows", "map_cols")),
 )
 
 Feed = tuple[contract.TopicSpec, "int | None"]
@@ -67,9 +72,11 @@ class LiveViewNode(Node):
         # Any participant may publish anything: a malformed message is dropped and counted.
         self.input_guard = InputGuard(self.get_logger().warning)
         self.feeds: dict[Feed, Any] = {
-            (spec, None): functools.partial(self.map_callback, spec.name)
-            for spec in (contract.FIRE_MAP, contract.BELIEF, contract.BELIEF_AGE)
+            (contract.FIRE_MAP, None): functools.partial(self.map_callback, contract.FIRE_MAP.name)
         }
+        geometry = MapGeometry(p["map_rows"], p["map_cols"])  # what the belief inputs must fit
+        for spec, handler in belief_inputs(geometry, lambda f: [self.view.belief_frame(f)]):
+            self.feeds[(spec, None)] = handler
         self.feeds[(contract.SCORE, None)] = self.score_callback
         for k in range(self.n_aircraft):
             self.feeds[(contract.ODOM, k)] = functools.partial(self.odom_callback, k)

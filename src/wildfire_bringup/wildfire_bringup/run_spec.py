@@ -217,7 +217,14 @@ def node_commands(
         # An observer: no reporter of the lockstep barrier, and the run flies on without it.
         commands[LIVE_VIEW] = [
             "wildfire_bringup.live_view_node",
-            *_param_args({"port": spec.foxglove_port, "n_aircraft": spec.n_aircraft}),
+            *_param_args(
+                {
+                    "port": spec.foxglove_port,
+                    "n_aircraft": spec.n_aircraft,
+                    "map_rows": spec.ground.geometry.rows,
+                    "map_cols": spec.ground.geometry.cols,
+                }
+            ),
         ]
     for name, command in commands.items():
         module, *rest = command

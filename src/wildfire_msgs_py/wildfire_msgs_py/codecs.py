@@ -169,12 +169,15 @@ def fuel_grid_from_msg(msg: Any) -> np.ndarray:
     return grid_from_msg(msg).astype(np.int16)
 
 
-def belief_age_to_msg(age_s: np.ndarray, stamp: Any = 0, *, message_class: Any = None) -> Any:
-    """Seconds since visited (0..255, clipped) -> grid scaled to 0..100 (rounded)."""
+def belief_age_display(age_s: np.ndarray) -> np.ndarray:
+    """Seconds since visited (0..255, clipped) -> int8 0..100 (rounded): the display age."""
     ages = np.clip(np.asarray(age_s, dtype=np.float64), 0.0, AGE_MAX_S)
-    return grid_to_msg(
-        np.rint(ages * (100.0 / AGE_MAX_S)).astype(np.int8), stamp, message_class=message_class
-    )
+    return np.rint(ages * (100.0 / AGE_MAX_S)).astype(np.int8)
+
+
+def belief_age_to_msg(age_s: np.ndarray, stamp: Any = 0, *, message_class: Any = None) -> Any:
+    """Seconds since visited -> grid of display ages (:func:`belief_age_display`)."""
+    return grid_to_msg(belief_age_display(age_s), stamp, message_class=message_class)
 
 
 def belief_age_from_msg(msg: Any) -> np.ndarray:
@@ -427,6 +430,7 @@ __all__ = [
     "action_to_msg",
     "bank_cmd_from_msg",
     "bank_cmd_to_msg",
+    "belief_age_display",
     "belief_age_from_msg",
     "belief_age_to_msg",
     "clock_from_msg",
