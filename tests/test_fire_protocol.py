@@ -123,3 +123,31 @@ def test_realtime_timer_announces_fire_steps_and_the_end() -> None:
         StatusOut("truncated", 30, complete=True),
     ]
     assert protocol.on_timer() == []
+
+
+def test_the_tick_split_says_where_each_ticks_wall_time_went() -> None:
+    """On a scripted clock: each tick, the agents answer 3 and 5 ms after the announcement,
+    the monitor 4 ms and the aggregator 9 ms; the barrier's own part follows the last."""
+    times = [0.0]  # tick 0's announcement
+    reporters = (*REPORTERS, "wildfire_run")
+    order = [("uav0", 3), ("wildfire_run", 4), ("uav1", 5), ("belief_aggregator", 9)]
+    for _ in range(7):
+        start = times[-1]
+        times += [start + lag / 1e3 for _, lag in order]
+        times.append(times[-1] + 0.002)  # the next announcement (or the end), 2 ms on
+    clock = iter(times)
+    protocol = FireProtocol(episode(6), Mode.LOCKSTEP, reporters, clock=lambda: next(clock))
+    protocol.start()
+    for reporter in reporters:
+        out = protocol.on_ack(reporter + READY_SUFFIX, 0)
+    for tick in range(7):
+        for reporter, _ in order:
+            out = protocol.on_ack(reporter, tick * TICK)
+    assert protocol.complete and next(clock, None) is None  # every time taken, in order
+    values = out[1].status.values if isinstance(out[1], DiagnosticsOut) else {}
+    assert values["split_ticks"] == 7
+    assert values["split_nodes_ms"] == pytest.approx(9.0)
+    assert values["split_fire_ms"] == pytest.approx(2.0)
+    assert values["split_agents_ms"] == pytest.approx(5.0)  # the slower of the two
+    assert values["split_belief_aggregator_ms"] == pytest.approx(9.0)
+    assert values["split_wildfire_run_ms"] == pytest.approx(4.0)

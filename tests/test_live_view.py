@@ -30,8 +30,8 @@ from wildfire_bringup.live_view import (
     grid_from_occupancy,
 )
 from wildfire_bringup.live_view_layout import layout_text
-from wildfire_msgs_py.camera_codec import footprints_to_msg
 from wildfire_msgs_py.belief_delta import Frame
+from wildfire_msgs_py.camera_codec import footprints_to_msg
 from wildfire_msgs_py.codecs import (
     VisitWindow,
     belief_age_display,

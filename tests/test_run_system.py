@@ -168,6 +168,11 @@ def test_composed_agents_run_equals_evaluate(tmp_path: Path, dds_env: dict[str, 
         tmp_path, dds_env, "rh", 3, 10.0, ["--agents-per-process", "2"]
     )
     assert summary["composed_agents"] == {"agents0": ["uav0", "uav1"]}
+    # Where the ticks' wall time went, as the barrier saw it (wildfire_sim.tick_split).
+    split = summary["tick_split_ms"]
+    assert split["ticks"] == summary["decisions"] + 1  # ticks 0..N, each closed
+    assert set(split) == {"ticks", "fire", "nodes", "agents", "belief_aggregator", "wildfire_run"}
+    assert 0 < split["agents"] <= split["nodes"] and 0 <= split["fire"]
     logs = tmp_path / "logs"
     assert sorted(log.name for log in logs.glob("*.log")) == [
         "agents0.log",

@@ -49,6 +49,7 @@ from wildfire_sim.episode import (
     EPISODE_DEFAULTS,
     fire_step_tick,
 )
+from wildfire_sim.fire_protocol import NAME as FIRE_NODE
 from wildfire_sim.ignition import ignite
 from wildfire_sim.landscape import PAPER_LANDSCAPE, Landscape
 
@@ -117,6 +118,8 @@ class RunMonitor:
         self.deadlines: dict[int, dict[str, float]] = {}
         self.radio_links: dict[int, dict[str, float]] = {}
         self.input_drops: dict[str, dict[str, float]] = {}
+        self.tick_split: dict[str, float] = {}
+        """The fire simulator's latest lockstep tick split (``split_*``, ms; ``tick_split``)."""
         self.radio_bytes = np.zeros(n_aircraft, dtype=np.int64)
         self.radio_messages = np.zeros(n_aircraft, dtype=np.int64)
         self.acked_tick = -1
@@ -207,7 +210,8 @@ class RunMonitor:
         return self.report()
 
     def on_diagnostics(self, statuses: Iterable[NodeStatus]) -> None:
-        """Keep every agent's latest decision-deadline statistics and every node's drop counts.
+        """Keep every agent's latest decision-deadline statistics, every node's drop counts
+        and the fire simulator's tick split.
 
         Both only grow during a run: an older (replayed) status never replaces a newer one.
         """
@@ -220,6 +224,9 @@ class RunMonitor:
             elif k is not None and status.name.endswith(contract.RADIO_STATUS):
                 if numbers.get("catch_ups", -1) >= self.radio_links.get(k, {}).get("catch_ups", 0):
                     self.radio_links[k] = numbers
+            elif status.hardware_id == FIRE_NODE and "split_ticks" in numbers:
+                if numbers["split_ticks"] >= self.tick_split.get("split_ticks", 0):
+                    self.tick_split = {k: v for k, v in numbers.items() if k.startswith("split_")}
             elif status.name.endswith(INPUT_STATUS):
                 node = status.name.removesuffix(f": {INPUT_STATUS}")
                 if numbers.get("dropped", -1) >= self.input_drops.get(node, {}).get("dropped", 0):

@@ -293,6 +293,7 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
     """Summary metrics of a finished run (score, ceiling and trajectory-derived metrics)."""
     from wildfire_belief.belief import belief_iou, mean_age_at_burning, score_ceiling
     from wildfire_sim.ignition import ignite
+    from wildfire_sim.tick_split import tick_split_ms
 
     trajectory = monitor.trajectory()
     status = monitor.status
@@ -367,6 +368,9 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
                 .min(axis=1)
                 .tolist()
             )
+    if monitor.tick_split:
+        # Lockstep: mean wall ms per tick, by part (wildfire_sim.tick_split).
+        result["tick_split_ms"] = tick_split_ms(monitor.tick_split)
     if monitor.deadlines:
         result["deadlines"] = {f"uav{k}": v for k, v in sorted(monitor.deadlines.items())}
         decided = sum(v.get("decisions", 0) for v in monitor.deadlines.values())

@@ -15,12 +15,14 @@ in publishing order (:data:`Output`); an acknowledgement to drop raises
 Once every reporter has finished the last tick (lockstep) or the timer passes the end (real
 time) the status carries ``complete``. An acknowledgement from an unknown reporter (refused
 by ``wire_checks.checked_ack``), of a tick not yet announced or of one already acknowledged
-is refused.
+is refused. In lockstep the node's status on ``/diagnostics`` carries where the ticks' wall
+time went so far (``split_*``, :mod:`wildfire_sim.tick_split`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import time
+from collections.abc import Callable, Iterable
 from typing import NamedTuple
 
 import numpy as np
@@ -30,6 +32,7 @@ from wildfire_msgs_py.grid_tiles import WHOLE_EVERY_STEPS, Tile, changed_tiles
 from wildfire_msgs_py.input_guard import DropReason, RejectedMessage
 from wildfire_msgs_py.system_codecs import READY_SUFFIX
 from wildfire_sim.episode import DECISION_PERIOD_NS, FireEpisode, Mode
+from wildfire_sim.tick_split import TickSplit
 
 NAME = "fire_simulator"
 STATUS_EVERY_TICKS = 10
@@ -78,7 +81,13 @@ Output = MapsOut | StatusOut | ClockOut | DiagnosticsOut | LogOut
 class FireProtocol:
     """The episode clock and the acknowledgement barrier (see the module docstring)."""
 
-    def __init__(self, episode: FireEpisode, mode: Mode, reporters: Iterable[str]) -> None:
+    def __init__(
+        self,
+        episode: FireEpisode,
+        mode: Mode,
+        reporters: Iterable[str],
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self.episode = episode
         self.mode = mode
         self.reporters = set(reporters)
@@ -89,6 +98,9 @@ class FireProtocol:
         self.sent_fuel: np.ndarray | None = None
         self.fuel_steps = 0
         """Fire steps since the fuel went out whole."""
+        self.clock = clock
+        """Wall time in seconds, for the lockstep tick split (:mod:`wildfire_sim.tick_split`)."""
+        self.split = TickSplit()
 
     def stamp_ns(self) -> int:
         """Sim time of the current tick."""
@@ -110,6 +122,7 @@ class FireProtocol:
             raise RejectedMessage(DropReason.STALE, f"{reporter} acknowledged {stamp} ns again")
         else:
             self.acked[reporter] = stamp
+            self.split.acked(reporter, self.clock())
         if not self.started:
             if self.reporters <= self.ready:
                 self.started = True
@@ -159,6 +172,7 @@ class FireProtocol:
         """Status (phase, tick) then, in lockstep, the clock of the current tick."""
         out: list[Output] = [StatusOut(self.episode.phase, self.episode.decisions)]
         if self.mode is Mode.LOCKSTEP:
+            self.split.announced(self.clock())
             out.append(ClockOut(self.stamp_ns()))
         if self.episode.decisions % STATUS_EVERY_TICKS == 0:
             out.append(self.diagnostics())
@@ -166,6 +180,8 @@ class FireProtocol:
 
     def finish(self, text: str) -> list[Output]:
         self.complete = True
+        if self.mode is Mode.LOCKSTEP:
+            self.split.announced(self.clock())  # closes the last tick
         status = StatusOut(self.episode.phase, self.episode.decisions, complete=True)
         return [status, self.diagnostics(), LogOut(text)]
 
@@ -179,6 +195,7 @@ class FireProtocol:
                 "tick": self.episode.decisions,
                 "burning_cells": int(self.episode.burning.sum()),
                 "complete": int(self.complete),
+                **self.split.values(),
             },
         )
         return DiagnosticsOut(self.stamp_ns(), status)
