@@ -226,7 +226,9 @@ class RunMonitor:
                     self.radio_links[k] = numbers
             elif status.hardware_id == FIRE_NODE and "split_ticks" in numbers:
                 if numbers["split_ticks"] >= self.tick_split.get("split_ticks", 0):
-                    self.tick_split = {k: v for k, v in numbers.items() if k.startswith("split_")}
+                    self.tick_split = {
+                        key: value for key, value in numbers.items() if key.startswith("split_")
+                    }
             elif status.name.endswith(INPUT_STATUS):
                 node = status.name.removesuffix(f": {INPUT_STATUS}")
                 if numbers.get("dropped", -1) >= self.input_drops.get(node, {}).get("dropped", 0):
