@@ -1,5 +1,6 @@
-"""The ground file: a run's fuel and ignition rasters, resolved once by the command and read by
-every node, checked against the digest the launcher passed, refused in one line otherwise."""
+"""The ground file: a run's fuel and ignition rasters, resolved once by the command, read by the
+fire simulator and received by every other node on the wire, checked against the digest the
+launcher passed, refused in one line otherwise."""
 
 from __future__ import annotations
 
@@ -17,8 +18,13 @@ from wildfire_belief.aggregator_parameters import aggregator_protocol
 from wildfire_msgs_py.errors import ParameterError
 from wildfire_sim.fuel_map import FuelMap
 from wildfire_sim.grid import MapGeometry
-from wildfire_sim.ground_file import write_ground
-from wildfire_sim.ground_parameters import GROUND_PARAMETERS, ground_of, ground_values
+from wildfire_sim.ground_file import remember_ground, write_ground
+from wildfire_sim.ground_parameters import (
+    GROUND_PARAMETERS,
+    ground_of,
+    ground_values,
+    wired_ground,
+)
 from wildfire_sim.ignition import ignite
 from wildfire_sim.landscape import Landscape
 
@@ -121,3 +127,26 @@ def test_a_node_given_another_ground_file_exits_with_one_line(tmp_path: Path) ->
     assert done.returncode == 2, done.stderr
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "not the file this run was launched with" in lines[0], lines
+
+
+def test_the_other_nodes_fly_the_ground_received_on_the_wire(tmp_path: Path) -> None:
+    """Without ground_file, a node's ground is the one received with its digest."""
+    ground = rastered()
+    path = tmp_path / "ground.npz"
+    sha = write_ground(ground, path)
+    wired = params(path, sha) | {"ground_file": ""}
+    with pytest.raises(ParameterError, match="no such ground received") as error:
+        ground_of(wired)
+    assert "\n" not in str(error.value)
+    assert remember_ground(path.read_bytes()) == sha
+    read = ground_of(wired)
+    assert read.summary() == ground.summary()
+    assert np.array_equal(
+        ignite(3, "circular", read, border_cells=6).burning,
+        ignite(3, "circular", ground, border_cells=6).burning,
+    )
+    # What the launcher passes: the file to the fire simulator only.
+    values = ground_values(ground, 6, (path, sha))
+    assert (
+        "ground_file" not in wired_ground(values) and wired_ground(values)["ground_sha256"] == sha
+    )

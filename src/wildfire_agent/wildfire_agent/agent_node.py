@@ -57,6 +57,7 @@ from wildfire_ros.node_support import (
 )
 from wildfire_ros.runtime import Node
 from wildfire_sim.ground_parameters import ground_of
+from wildfire_sim.ground_wire import await_ground
 
 
 class AgentNode(Node):
@@ -65,6 +66,7 @@ class AgentNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("agent", **kwargs)
         p = declare_parameters(self, PARAMETERS)
+        await_ground(self, p)  # rasters: the fire simulator's ground, before the protocol
         self.protocol = protocol = agent_protocol(p, lambda: self.get_clock().now().nanoseconds)
         self.k, self.seed, self.name_tag = protocol.k, p["seed"], protocol.name_tag
         self.input_guard = guard = InputGuard(self.get_logger().warning)

@@ -65,6 +65,7 @@ from wildfire_sim.episode import (
 )
 from wildfire_sim.errors import FireConfigError
 from wildfire_sim.ground_parameters import ground_of
+from wildfire_sim.ground_wire import await_ground
 
 
 class BeliefAggregatorNode(Node):
@@ -73,6 +74,7 @@ class BeliefAggregatorNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(NAME, **kwargs)
         p = declare_parameters(self, PARAMETERS)
+        await_ground(self, p)  # rasters: the fire simulator's ground, before the protocol
         self.n: int = p["n_aircraft"]
         self.seed: int = p["seed"]
         self.geometry = geometry = ground_of(p).geometry

@@ -15,6 +15,7 @@ map (every node gets the ground parameters of ``wildfire_sim.ground_parameters``
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import sys
@@ -70,15 +71,18 @@ def _nodes(context, *_args, **_kwargs):
     ignitions = int(LaunchConfiguration("ignitions").perform(context))
     ground_file = LaunchConfiguration("ground_file").perform(context)
     ground = {"map_rows": rows, "map_cols": cols, "ignitions": ignitions}
+    reader = {}  # the fire simulator reads the rasters; the others wait for them on the wire
     if ground_file:
-        ground["ground_file"] = os.path.abspath(ground_file)
+        with open(ground_file, "rb") as raw:
+            ground["ground_sha256"] = hashlib.sha256(raw.read()).hexdigest()
+        reader = {"ground_file": os.path.abspath(ground_file)}
     common = {"mode": "realtime", "seed": seed, **ground}
     nodes = [
         Node(
             package="wildfire_sim",
             executable="fire_simulator",
             name="fire_simulator",
-            parameters=[params, {**common, "n_aircraft": n}],
+            parameters=[params, {**common, **reader, "n_aircraft": n}],
             output="screen",
         ),
         Node(

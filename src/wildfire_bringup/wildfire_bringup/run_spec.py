@@ -25,7 +25,7 @@ from wildfire_bringup.monitor_protocol import REPORTER
 from wildfire_sim.defaults import EPISODE_DEFAULTS
 from wildfire_sim.ground_file import FILE_NAME as GROUND_FILE
 from wildfire_sim.ground_file import has_rasters, write_ground
-from wildfire_sim.ground_parameters import ground_values
+from wildfire_sim.ground_parameters import ground_values, wired_ground
 from wildfire_sim.landscape import PAPER_LANDSCAPE, Landscape
 from wildfire_testbed.hosts import place_nodes
 from wildfire_testbed.netfaults import NetemSpec, Partition
@@ -154,7 +154,8 @@ def node_commands(
 ) -> dict[str, list[str]]:
     """Command line of every node, by node name (``fire_simulator``, ``uav0``, ...)."""
     ground = ground_values(spec.ground, EPISODE_DEFAULTS.border_cells, spec.ground_file)
-    common = {"seed": spec.seed, "shape": spec.shape, "mode": spec.mode, **ground}
+    # Only the fire simulator reads the ground file; the others wait for it on the wire.
+    common = {"seed": spec.seed, "shape": spec.shape, "mode": spec.mode, **wired_ground(ground)}
     sensing = {"sensor": spec.sensor, "pixel_error": spec.pixel_error} if spec.noisy else {}
     commands = {
         "fire_simulator": [
@@ -162,6 +163,7 @@ def node_commands(
             *_param_args(
                 {
                     **common,
+                    **ground,
                     "wind_x": float(spec.wind[0]),
                     "wind_y": float(spec.wind[1]),
                     "duration_s": float(spec.duration_s),
@@ -201,7 +203,7 @@ def node_commands(
             "start_y": y,
             "start_heading": heading,
             "start_bank_steps": bank_steps,
-            **ground,
+            **wired_ground(ground),
         }
         if spec.limited_links:
             params |= {"comm": spec.comm, "shape": spec.shape}

@@ -271,6 +271,15 @@ BELIEF_SNAPSHOT = TopicSpec(
     "an agent's copy of the shared belief: [time_s, score, believed (rows x cols), age_s (rows x "
     "cols)], the grids' shape in the layout's rows and cols dimensions",
 )
+GROUND = TopicSpec(
+    "/wildfire/ground",
+    "std_msgs/msg/UInt8MultiArray",
+    LATCHED,
+    False,
+    "field maps with rasters only: the run's fuel and ignition rasters, resolved (the bytes of "
+    "a ground file, wildfire_sim.ground_file), once at the start by the fire simulator; every "
+    "other node waits for the one whose SHA-256 is its ground_sha256",
+)
 RADIO = TopicSpec(
     "radio",
     "std_msgs/msg/UInt8MultiArray",
@@ -337,6 +346,7 @@ SYSTEM_TOPICS: tuple[TopicSpec, ...] = (
     STATE_STAMPED,
     BELIEF_REQUEST,
     BELIEF_SNAPSHOT,
+    GROUND,
     RADIO,
     *CAMERA_CELLS,
     CAMERA_FOOTPRINTS,
@@ -418,6 +428,7 @@ __all__ = [
     "FIRE_MAP",
     "FUEL_MAP",
     "FUEL_TILES",
+    "GROUND",
     "LATCHED",
     "LATCHED_HISTORY",
     "MAP_FRAME",

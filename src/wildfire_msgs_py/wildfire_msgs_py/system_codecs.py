@@ -12,7 +12,8 @@ Encodings:
 * stamped exact state -> ``sensor_msgs/JointState`` with names ``x_m, y_m, heading_rad,
   bank_rad`` and the float64 values as ``position``;
 * belief snapshot -> ``std_msgs/Float64MultiArray`` ``[time_s, score, believed(H*W),
-  age_s(H*W)]`` (every value exact in float64).
+  age_s(H*W)]`` (every value exact in float64);
+* ground (a ground file's bytes) -> ``std_msgs/UInt8MultiArray`` ``data``.
 """
 
 from __future__ import annotations
@@ -214,6 +215,17 @@ def snapshot_from_msg(msg: Any) -> BeliefSnapshot:
     )
 
 
+def ground_to_msg(data: bytes, *, message_class: Any = None) -> Any:
+    """A ground file's bytes -> ``std_msgs/UInt8MultiArray``."""
+    msg = _message("std_msgs/msg/UInt8MultiArray", message_class)
+    msg.data = array.array("B", data)
+    return msg
+
+
+def ground_from_msg(msg: Any) -> bytes:
+    return bytes(msg.data)
+
+
 __all__ = [
     "EPISODE_NAME",
     "PHASES",
@@ -226,6 +238,8 @@ __all__ = [
     "age_image_to_msg",
     "episode_from_msg",
     "episode_to_msg",
+    "ground_from_msg",
+    "ground_to_msg",
     "snapshot_from_msg",
     "snapshot_to_msg",
     "stamped_state_from_msg",

@@ -66,6 +66,7 @@ from wildfire_sim.fire_protocol import (
     StatusOut,
 )
 from wildfire_sim.ground_parameters import GROUND_PARAMETERS, ground_of
+from wildfire_sim.ground_wire import publish_ground
 from wildfire_sim.shapes import Shape
 
 D = EPISODE_DEFAULTS
@@ -133,6 +134,7 @@ class FireSimulatorNode(Node):
         self.fire_pub = contract_publisher(self, contract.FIRE_MAP)
         self.fuel_pub = contract_publisher(self, contract.FUEL_MAP)
         self.fuel_tiles_pub = contract_publisher(self, contract.FUEL_TILES)
+        self.ground_pub = publish_ground(self, p)  # rasters: what the other nodes wait for
         self.episode_pub = contract_publisher(self, contract.EPISODE)
         self.clock_pub = contract_publisher(self, contract.CLOCK)
         self.diagnostics_pub = contract_publisher(self, contract.DIAGNOSTICS)

@@ -5,17 +5,18 @@ once, in the command's process (rasterio, class tables, resampling to 10 m, the 
 ``--map-size``), and writes what came out, per cell of the map, to ``ground.npz`` in the run's
 log folder: the fuel ranges (int8), the spread multipliers (float32, when the table gives
 any) and the cells burning at the start (bool), with the raster's name and SHA-256 for the
-summaries. Each node then gets the file's path and the SHA-256 of its bytes as parameters
-(``ground_file``, ``ground_sha256``; :mod:`wildfire_sim.ground_parameters`), reads it with
-numpy alone and refuses to start, in one line, if the bytes are not the ones the launcher
-wrote. So every node flies the very arrays that ``wildfire eval`` flies, and a node on
-another host that was given a different copy says so instead of flying another fire.
+summaries. The fire simulator gets the file's path and the SHA-256 of its bytes as
+parameters (``ground_file``, ``ground_sha256``; :mod:`wildfire_sim.ground_parameters`), reads
+it with numpy alone and sends its bytes once, latched, on ``/wildfire/ground``. Every other
+node gets the digest only, waits for the ground with that digest before it builds its
+protocol (:mod:`wildfire_sim.ground_wire`), and refuses to start, in one line, if none comes.
+So every node flies the very arrays that ``wildfire eval`` flies, on any host, and none reads
+a file but the fire simulator.
 
-Why a file and not a topic: every node sizes its protocol, and the aggregator and the radio
-replicas start their belief, from the ground before they join the graph. A latched topic
-would make each of them wait on the fire simulator before it could be built. The run's
-virtual hosts share this machine's disk; on real hosts, copy the file beside the code (as a
-map server's YAML is).
+Why the nodes wait: the aggregator and the agents' radio replicas build their protocol and
+initial belief from the ground (the ignition on the raster's fuel) before they join the
+lockstep barrier. The fire simulator sends the ground before it waits for anyone, so the
+wait is the time of discovery.
 """
 
 from __future__ import annotations
@@ -67,13 +68,58 @@ def write_ground(ground: Landscape, path: Path) -> str:
 @lru_cache(maxsize=4)
 def read_ground(path: str, sha256: str, geometry: MapGeometry, ignitions: int) -> Landscape:
     """The landscape of a ground file, checked against the run's ``sha256`` and ``geometry``
-    (a node's ``ground_file`` and ``ground_sha256`` parameters; cached, so that agents
-    composed in one process read it once). Raises :class:`ParameterError` in one line."""
+    (the fire simulator's ``ground_file`` and ``ground_sha256`` parameters; cached). Raises
+    :class:`ParameterError` in one line."""
     what = f"parameter ground_file {path!r}"
     try:
         data = Path(path).read_bytes()
     except OSError as error:
         raise ParameterError(f"{what}: cannot be read ({error.strerror})") from None
+    return ground_from_bytes(data, sha256, geometry, ignitions, what)
+
+
+_RECEIVED: dict[str, bytes] = {}
+"""Ground files this process received on ``/wildfire/ground``, by SHA-256 (composed agents
+wait for it once)."""
+
+
+def remember_ground(data: bytes) -> str:
+    """Keep a ground file received from the wire; return its SHA-256."""
+    digest = hashlib.sha256(data).hexdigest()
+    _RECEIVED[digest] = data
+    return digest
+
+
+def has_received(sha256: str) -> bool:
+    return sha256 in _RECEIVED
+
+
+@lru_cache(maxsize=4)
+def received_ground(sha256: str, geometry: MapGeometry, ignitions: int) -> Landscape:
+    """The landscape of the ground received with digest ``sha256`` (a node's ``ground_sha256``
+    without ``ground_file``: the fire simulator's copy, from ``/wildfire/ground``)."""
+    data = _RECEIVED.get(sha256)
+    if data is None:
+        raise ParameterError(
+            f"parameter ground_sha256 {sha256[:12]}...: no such ground received on "
+            "/wildfire/ground (the fire simulator publishes it from its ground_file)"
+        )
+    return ground_from_bytes(data, sha256, geometry, ignitions, "/wildfire/ground")
+
+
+def ground_bytes(path: str, sha256: str) -> bytes:
+    """The bytes of the ground file at ``path`` that has digest ``sha256`` (what the fire
+    simulator publishes); read and checked as :func:`read_ground` does."""
+    data = Path(path).read_bytes()
+    if sha256 and hashlib.sha256(data).hexdigest() != sha256:
+        raise ParameterError(f"parameter ground_file {path!r}: not the ground_sha256 file")
+    return data
+
+
+def ground_from_bytes(
+    data: bytes, sha256: str, geometry: MapGeometry, ignitions: int, what: str
+) -> Landscape:
+    """The landscape a ground file's bytes hold, checked (``what`` names it in errors)."""
     digest = hashlib.sha256(data).hexdigest()
     if sha256 and digest != sha256:
         raise ParameterError(
@@ -104,7 +150,7 @@ def read_ground(path: str, sha256: str, geometry: MapGeometry, ignitions: int) -
             arrays["fuel_low"],
             arrays["fuel_high"],
             arrays.get("fuel_spread"),
-            str(arrays.get("fuel_source", path)),
+            str(arrays.get("fuel_source", what)),
             str(arrays.get("fuel_sha256", digest)),
         )
     ignition = arrays.get("ignition")
@@ -115,4 +161,14 @@ def read_ground(path: str, sha256: str, geometry: MapGeometry, ignitions: int) -
     return Landscape(geometry, fuel, ignition, ignitions)
 
 
-__all__ = ["FILE_NAME", "has_rasters", "read_ground", "write_ground"]
+__all__ = [
+    "FILE_NAME",
+    "ground_bytes",
+    "ground_from_bytes",
+    "has_rasters",
+    "has_received",
+    "read_ground",
+    "received_ground",
+    "remember_ground",
+    "write_ground",
+]

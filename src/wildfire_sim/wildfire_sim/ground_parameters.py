@@ -7,9 +7,10 @@ sizes its maps and checks its inputs against the same geometry, and starts from 
 ignition (:func:`wildfire_sim.ignition.ignite`).
 
 Fuel and ignition rasters (``--fuel-map``, ``--ignition-map``) do not fit in parameters:
-``ground_file`` names the resolved rasters that ``wildfire run`` writes
-(:mod:`wildfire_sim.ground_file`) and ``ground_sha256`` the digest every node checks them
-against. Without a ground file a node reads nothing from disk.
+the fire simulator's ``ground_file`` names the resolved rasters that ``wildfire run`` writes
+(:mod:`wildfire_sim.ground_file`), and ``ground_sha256`` the digest every node checks them
+against; the other nodes receive them on ``/wildfire/ground``. No node but the fire
+simulator reads a file.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from typing import Any
 from wildfire_ros.node_support import ParamSpec
 from wildfire_sim.defaults import EPISODE_DEFAULTS
 from wildfire_sim.grid import MAX_SIDE, MIN_SIDE, PAPER_MAP, MapGeometry
-from wildfire_sim.ground_file import has_rasters, read_ground
+from wildfire_sim.ground_file import has_rasters, read_ground, received_ground
 from wildfire_sim.landscape import MAX_IGNITIONS, PAPER_LANDSCAPE, Landscape
 
 GROUND_PARAMETERS = (
@@ -44,10 +45,15 @@ GROUND_PARAMETERS = (
     ParamSpec(
         "ground_file",
         "",
-        "fuel and ignition rasters resolved by wildfire run (ground.npz in its log folder; "
-        "'': the paper's fuel and the shape or seeded ignitions)",
+        "fire simulator: fuel and ignition rasters resolved by wildfire run (ground.npz in its "
+        "log folder), sent on /wildfire/ground; '': none",
     ),
-    ParamSpec("ground_sha256", "", "SHA-256 the ground file must have ('': not checked)"),
+    ParamSpec(
+        "ground_sha256",
+        "",
+        "SHA-256 of the run's ground file; without ground_file, wait for it on "
+        "/wildfire/ground ('': no rasters, or the fire simulator's file unchecked)",
+    ),
 )
 
 
@@ -56,6 +62,8 @@ def ground_of(p: Mapping[str, Any]) -> Landscape:
     geometry = MapGeometry(p["map_rows"], p["map_cols"])
     if p["ground_file"]:
         return read_ground(p["ground_file"], p["ground_sha256"], geometry, p["ignitions"])
+    if p["ground_sha256"]:
+        return received_ground(p["ground_sha256"], geometry, p["ignitions"])
     if geometry.is_paper and not p["ignitions"]:
         return PAPER_LANDSCAPE
     return Landscape(geometry, ignitions=p["ignitions"])
@@ -65,7 +73,8 @@ def ground_values(
     ground: Landscape, border_cells: int, file: tuple[Path, str] | None = None
 ) -> dict[str, Any]:
     """The parameter values of ``ground`` (what the launcher passes every node); ``file``:
-    the ground file holding its rasters and that file's SHA-256."""
+    the ground file holding its rasters and that file's SHA-256 (only the fire simulator
+    keeps ``ground_file``, see :func:`wired_ground`)."""
     values: dict[str, Any] = {
         "map_rows": ground.geometry.rows,
         "map_cols": ground.geometry.cols,
@@ -79,4 +88,10 @@ def ground_values(
     return values
 
 
-__all__ = ["GROUND_PARAMETERS", "ground_of", "ground_values"]
+def wired_ground(values: dict[str, Any]) -> dict[str, Any]:
+    """``values`` of a node other than the fire simulator: the digest without the file, so
+    that it waits for the ground on ``/wildfire/ground``."""
+    return {key: value for key, value in values.items() if key != "ground_file"}
+
+
+__all__ = ["GROUND_PARAMETERS", "ground_of", "ground_values", "wired_ground"]
