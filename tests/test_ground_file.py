@@ -18,7 +18,7 @@ from wildfire_belief.aggregator_parameters import aggregator_protocol
 from wildfire_msgs_py.errors import ParameterError
 from wildfire_sim.fuel_map import FuelMap
 from wildfire_sim.grid import MapGeometry
-from wildfire_sim.ground_file import remember_ground, write_ground
+from wildfire_sim.ground_file import accept_ground, write_ground
 from wildfire_sim.ground_parameters import (
     GROUND_PARAMETERS,
     ground_of,
@@ -138,7 +138,8 @@ def test_the_other_nodes_fly_the_ground_received_on_the_wire(tmp_path: Path) -> 
     with pytest.raises(ParameterError, match="no such ground received") as error:
         ground_of(wired)
     assert "\n" not in str(error.value)
-    assert remember_ground(path.read_bytes()) == sha
+    assert not accept_ground(b"another run's ground", sha)
+    assert accept_ground(path.read_bytes(), sha)
     read = ground_of(wired)
     assert read.summary() == ground.summary()
     assert np.array_equal(

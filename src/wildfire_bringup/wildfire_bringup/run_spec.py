@@ -24,7 +24,7 @@ from wildfire_bringup.agent_processes import agent_groups, composed_commands, pr
 from wildfire_bringup.monitor_protocol import REPORTER
 from wildfire_sim.defaults import EPISODE_DEFAULTS
 from wildfire_sim.ground_file import FILE_NAME as GROUND_FILE
-from wildfire_sim.ground_file import has_rasters, write_ground
+from wildfire_sim.ground_file import write_ground
 from wildfire_sim.ground_parameters import ground_values, wired_ground
 from wildfire_sim.landscape import PAPER_LANDSCAPE, Landscape
 from wildfire_testbed.hosts import place_nodes
@@ -117,7 +117,7 @@ def with_ground_file(spec: RunSpec) -> RunSpec:
     """``spec`` with its rasters (fuel, ignition) written to a ground file in its log folder,
     made if it has none: the user's rasters are read once, by the command, and every node
     reads the resolved arrays (:mod:`wildfire_sim.ground_file`). Without rasters: ``spec``."""
-    if not has_rasters(spec.ground) or spec.ground_file is not None:
+    if not spec.ground.has_rasters or spec.ground_file is not None:
         return spec
     log_dir = spec.log_dir or Path(tempfile.mkdtemp(prefix="wildfire-run-"))
     log_dir.mkdir(parents=True, exist_ok=True)

@@ -38,11 +38,6 @@ FILE_NAME = "ground.npz"
 """The ground file's name in a run's log folder."""
 
 
-def has_rasters(ground: Landscape) -> bool:
-    """Whether ``ground`` holds what its parameters cannot say (a fuel or ignition raster)."""
-    return ground.fuel is not None or ground.ignition_map is not None
-
-
 def write_ground(ground: Landscape, path: Path) -> str:
     """Write the rasters of ``ground`` to ``path`` (an ``.npz``); return its bytes' SHA-256."""
     arrays: dict[str, Any] = {}  # (numpy's stub types savez's keywords as its options)
@@ -66,16 +61,29 @@ def write_ground(ground: Landscape, path: Path) -> str:
 
 
 @lru_cache(maxsize=4)
-def read_ground(path: str, sha256: str, geometry: MapGeometry, ignitions: int) -> Landscape:
-    """The landscape of a ground file, checked against the run's ``sha256`` and ``geometry``
-    (the fire simulator's ``ground_file`` and ``ground_sha256`` parameters; cached). Raises
-    :class:`ParameterError` in one line."""
+def ground_bytes(path: str, sha256: str) -> bytes:
+    """The bytes of the ground file at ``path``, checked against the run's ``sha256`` (the
+    fire simulator's ``ground_file`` and ``ground_sha256``: what it reads and publishes;
+    cached). Raises :class:`ParameterError` in one line."""
     what = f"parameter ground_file {path!r}"
     try:
         data = Path(path).read_bytes()
     except OSError as error:
         raise ParameterError(f"{what}: cannot be read ({error.strerror})") from None
-    return ground_from_bytes(data, sha256, geometry, ignitions, what)
+    digest = hashlib.sha256(data).hexdigest()
+    if sha256 and digest != sha256:
+        raise ParameterError(
+            f"{what}: SHA-256 {digest[:12]}..., expected {sha256[:12]}... (ground_sha256): "
+            "not the file this run was launched with"
+        )
+    return data
+
+
+@lru_cache(maxsize=4)
+def read_ground(path: str, sha256: str, geometry: MapGeometry, ignitions: int) -> Landscape:
+    """The landscape of the ground file at ``path`` (:func:`ground_bytes`), checked against
+    ``geometry``."""
+    return _landscape(ground_bytes(path, sha256), geometry, ignitions, f"ground_file {path!r}")
 
 
 _RECEIVED: dict[str, bytes] = {}
@@ -83,11 +91,12 @@ _RECEIVED: dict[str, bytes] = {}
 wait for it once)."""
 
 
-def remember_ground(data: bytes) -> str:
-    """Keep a ground file received from the wire; return its SHA-256."""
-    digest = hashlib.sha256(data).hexdigest()
-    _RECEIVED[digest] = data
-    return digest
+def accept_ground(data: bytes, sha256: str) -> bool:
+    """Keep a ground file received from the wire if its digest is ``sha256``."""
+    if hashlib.sha256(data).hexdigest() != sha256:
+        return False
+    _RECEIVED[sha256] = data
+    return True
 
 
 def has_received(sha256: str) -> bool:
@@ -104,28 +113,11 @@ def received_ground(sha256: str, geometry: MapGeometry, ignitions: int) -> Lands
             f"parameter ground_sha256 {sha256[:12]}...: no such ground received on "
             "/wildfire/ground (the fire simulator publishes it from its ground_file)"
         )
-    return ground_from_bytes(data, sha256, geometry, ignitions, "/wildfire/ground")
+    return _landscape(data, geometry, ignitions, "/wildfire/ground")
 
 
-def ground_bytes(path: str, sha256: str) -> bytes:
-    """The bytes of the ground file at ``path`` that has digest ``sha256`` (what the fire
-    simulator publishes); read and checked as :func:`read_ground` does."""
-    data = Path(path).read_bytes()
-    if sha256 and hashlib.sha256(data).hexdigest() != sha256:
-        raise ParameterError(f"parameter ground_file {path!r}: not the ground_sha256 file")
-    return data
-
-
-def ground_from_bytes(
-    data: bytes, sha256: str, geometry: MapGeometry, ignitions: int, what: str
-) -> Landscape:
-    """The landscape a ground file's bytes hold, checked (``what`` names it in errors)."""
-    digest = hashlib.sha256(data).hexdigest()
-    if sha256 and digest != sha256:
-        raise ParameterError(
-            f"{what}: SHA-256 {digest[:12]}..., expected {sha256[:12]}... (ground_sha256): "
-            "not the file this run was launched with"
-        )
+def _landscape(data: bytes, geometry: MapGeometry, ignitions: int, what: str) -> Landscape:
+    """The landscape a ground file's bytes hold, checked (``what`` names them in errors)."""
     try:
         with np.load(io.BytesIO(data), allow_pickle=False) as archive:
             arrays = {name: archive[name] for name in archive.files}
@@ -151,7 +143,7 @@ def ground_from_bytes(
             arrays["fuel_high"],
             arrays.get("fuel_spread"),
             str(arrays.get("fuel_source", what)),
-            str(arrays.get("fuel_sha256", digest)),
+            str(arrays.get("fuel_sha256", hashlib.sha256(data).hexdigest())),
         )
     ignition = arrays.get("ignition")
     if fuel is None and ignition is None:
@@ -163,12 +155,10 @@ def ground_from_bytes(
 
 __all__ = [
     "FILE_NAME",
+    "accept_ground",
     "ground_bytes",
-    "ground_from_bytes",
-    "has_rasters",
     "has_received",
     "read_ground",
     "received_ground",
-    "remember_ground",
     "write_ground",
 ]

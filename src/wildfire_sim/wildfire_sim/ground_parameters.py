@@ -22,7 +22,7 @@ from typing import Any
 from wildfire_ros.node_support import ParamSpec
 from wildfire_sim.defaults import EPISODE_DEFAULTS
 from wildfire_sim.grid import MAX_SIDE, MIN_SIDE, PAPER_MAP, MapGeometry
-from wildfire_sim.ground_file import has_rasters, read_ground, received_ground
+from wildfire_sim.ground_file import read_ground, received_ground
 from wildfire_sim.landscape import MAX_IGNITIONS, PAPER_LANDSCAPE, Landscape
 
 GROUND_PARAMETERS = (
@@ -83,7 +83,7 @@ def ground_values(
     }
     if file is not None:
         values |= {"ground_file": str(file[0]), "ground_sha256": file[1]}
-    elif has_rasters(ground):
+    elif ground.has_rasters:
         raise ValueError("a ground with rasters travels in a ground file (write_ground)")
     return values
 

@@ -8,7 +8,6 @@ without rasters, so a run on the paper's map or with seeded ignitions has no suc
 
 from __future__ import annotations
 
-import hashlib
 import time
 from collections.abc import Mapping
 from typing import Any
@@ -17,7 +16,7 @@ from wildfire_msgs_py import contract
 from wildfire_msgs_py.errors import ParameterError
 from wildfire_msgs_py.system_codecs import ground_from_msg, ground_to_msg
 from wildfire_ros.node_support import contract_publisher, contract_subscription
-from wildfire_sim.ground_file import ground_bytes, has_received, remember_ground
+from wildfire_sim.ground_file import accept_ground, ground_bytes, has_received
 
 GROUND_WAIT_S = 60.0
 """Longest wait for the ground: DDS discovery on a loaded machine (or across hosts)."""
@@ -44,10 +43,7 @@ def await_ground(node: Any, p: Mapping[str, Any], timeout_s: float = GROUND_WAIT
     logger = node.get_logger()
 
     def on_ground(msg: Any) -> None:
-        data = ground_from_msg(msg)
-        if hashlib.sha256(data).hexdigest() == sha256:
-            remember_ground(data)
-        else:
+        if not accept_ground(ground_from_msg(msg), sha256):
             logger.warning(f"{contract.GROUND.name}: ignored a ground of another run")
 
     subscription = contract_subscription(node, contract.GROUND, on_ground)

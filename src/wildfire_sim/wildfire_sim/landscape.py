@@ -68,6 +68,11 @@ class Landscape:
             raise FireConfigError("--ignitions and --ignition-map: give one of them")
 
     @property
+    def has_rasters(self) -> bool:
+        """Whether it holds what parameters cannot say: a fuel or an ignition raster."""
+        return self.fuel is not None or self.ignition_map is not None
+
+    @property
     def is_paper(self) -> bool:
         """The paper's world: its map, its fuel, its named shapes."""
         return (
