@@ -95,8 +95,9 @@ def test_eval_json(tmp_path):
         (["eval", "--sensor", "camera", "--policy", "obs"], "takes obs images"),
         (
             ["run", "--sensor", "camera", "--comm", "none"],
-            "noisy sensing under limited radio links",
+            "flies in eval and train only",
         ),
+        (["eval", "--sensor", "camera", "--wind-filter", "--comm", "range=300"], "--comm ideal"),
         (["run", "--wind-filter"], "wind filter: expected noisy reports"),
     ],
 )

@@ -24,6 +24,8 @@ stands before the tick's own merges, in the environment and in an agent alike.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from wildfire_belief.replicas import KEY_AIRCRAFT, KEY_SHIFT, visit_key
@@ -130,12 +132,27 @@ class CatchUpQueue:
     ) -> tuple[tuple[Digest, ...], tuple[Reply, ...]]:
         """The digests and replies of the message of ``tick``, from the replica's keys and
         values as they stand."""
+        return self.compose_with(
+            tick,
+            lambda _peer: digest_of(key),
+            lambda peer, digest: make_reply(peer, key, burning, digest),
+        )
+
+    def compose_with(
+        self,
+        tick: int,
+        digest: Callable[[int], np.ndarray],
+        reply: Callable[[int, np.ndarray], Reply],
+    ) -> tuple[tuple[Digest, ...], tuple[Reply, ...]]:
+        """The digests and replies of the message of ``tick``, made by ``digest(peer)`` (the
+        block ticks to send ``peer``) and ``reply(peer, block_ticks)`` (the answer to
+        ``peer``'s digest): the replica's own way of saying what it holds."""
         asks = sorted(self.asks)[:MAX_SECTIONS]
         answers = sorted(self.answers)[:MAX_SECTIONS]
         self.asks -= set(asks)
         self.waiting |= dict.fromkeys(asks, tick)
-        digests = tuple(Digest(j, digest_of(key)) for j in asks)
-        replies = tuple(make_reply(j, key, burning, self.answers.pop(j)) for j in answers)
+        digests = tuple(Digest(j, digest(j)) for j in asks)
+        replies = tuple(reply(j, self.answers.pop(j)) for j in answers)
         return digests, replies
 
 

@@ -121,8 +121,11 @@ class EnvConfig:
             raise WorldError(f"pixel error: expected a number in [0, 0.5), got {self.pixel_error}")
         if self.wind_filter and not self.pixel_error > 0.0:
             raise WorldError("wind filter: expected noisy reports (a pixel error > 0)")
-        if self.noisy and not self.comm.ideal:
-            raise WorldError("sensor: noisy sensing under limited radio links is not built yet")
+        if self.wind_filter and not self.comm.ideal:
+            raise WorldError(
+                "wind filter: under limited radio links no aircraft holds the team's reports "
+                "it reads; fly it with --comm ideal"
+            )
         if self.noisy and self.sensor != "camera" and self.observation == Approach.OBS:
             raise WorldError(
                 "sensor: the observation approach sees the true fire under the disc; with a "

@@ -86,6 +86,7 @@ from wildfire_world.config import (
 )
 from wildfire_world.errors import WorldError
 from wildfire_world.team_radio import TeamRadio
+from wildfire_world.team_report_radio import TeamReportRadio
 from wildfire_world.team_sensing import TeamSensing
 
 
@@ -132,9 +133,13 @@ class WildfireVecEnv:
         # C-contiguous copy of the burning grids, refreshed when fires step: sensors and
         # visits read it every decision, and the fire model stores its grids env-last.
         self.truth = np.ascontiguousarray(self.fire.burning)
-        self.radio = (
-            None if config.comm.ideal else TeamRadio(config.comm, num_envs, n, config.geometry)
-        )
+        self.radio: TeamRadio | TeamReportRadio | None = None
+        if not config.comm.ideal and config.noisy:
+            self.radio = TeamReportRadio(
+                config.comm, num_envs, n, config.pixel_error, config.preburn_steps, config.geometry
+            )
+        elif not config.comm.ideal:
+            self.radio = TeamRadio(config.comm, num_envs, n, config.geometry)
         self.sensing = None
         if config.noisy:
             self.sensing = TeamSensing(
@@ -146,6 +151,7 @@ class WildfireVecEnv:
                 config.wind_filter,
                 keep_codes=config.camera_view,
                 geometry=config.geometry,
+                keep_reports=self.radio is not None,
             )
 
     # ------------------------------------------------------------------ reset
@@ -169,10 +175,12 @@ class WildfireVecEnv:
             np.stack([s.wind for s in scenarios]),
         )
         self.belief.reset(env_ids, self.fire.burning[env_ids])
-        if self.radio is not None:
+        fuel = np.stack([m.fuel for m in masks])
+        if isinstance(self.radio, TeamReportRadio):
+            self.radio.reset(env_ids, self.fire.burning[env_ids], fuel)
+        elif self.radio is not None:
             self.radio.reset(env_ids, self.fire.burning[env_ids])
         if self.sensing is not None:
-            fuel = np.stack([m.fuel for m in masks])
             self.sensing.reset(env_ids, seeds, self.fire.burning[env_ids], fuel)
         starting = np.zeros(self.num_envs, dtype=bool)
         starting[env_ids] = True
@@ -216,6 +224,10 @@ class WildfireVecEnv:
             self._maps_stale |= fire_due
         if self.sensing is not None:
             team_reward = self.sensing.sense(active, self.aircraft, self.truth, fire_due)
+            if isinstance(self.radio, TeamReportRadio):
+                self.radio.send(
+                    active, self.decisions, self.seeds, self.aircraft, self.sensing.sent, fire_due
+                )
         else:
             team_reward = self._visit(active)
         self.scores += team_reward
@@ -246,7 +258,7 @@ class WildfireVecEnv:
         keep = active[env]
         env, cell = env[keep], cell[keep]
         truth = self.truth.reshape(-1)[env * self.geometry.cells + cell]
-        if self.radio is not None:
+        if isinstance(self.radio, TeamRadio):
             seen = window_values(self.truth, windows).astype(bool)
             self.radio.send(active, self.decisions, self.seeds, self.aircraft, windows, seen)
         return self.belief.visit(env, cell, truth)
@@ -292,10 +304,7 @@ class WildfireVecEnv:
         """Reward look-up data of what the team believes burning (``rh-belief`` plans on it):
         of the shared belief, (E, ...), or under limited links of each aircraft's replica,
         (E * N, ...)."""
-        if self.radio is None:
-            believed = self.believed()
-        else:
-            believed = self.radio.replicas.burning.reshape(-1, *self.geometry.shape)
+        believed = self.believed() if self.radio is None else self.radio.believed()
         return fire_field_maps(believed, self.config.obs_weights)
 
     def team_views(self) -> AircraftState:

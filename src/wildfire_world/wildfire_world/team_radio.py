@@ -33,8 +33,10 @@ from wildfire_msgs_py.radio_codec import Digest, Reply
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
 
 
-class TeamRadio:
-    """Radio links, replicas and heard poses of ``num_envs`` episodes of ``n`` aircraft."""
+class RadioLinks:
+    """Radio links and heard poses of ``num_envs`` episodes of ``n`` aircraft: what every
+    message carries but its payload (visits, :class:`TeamRadio`, or noisy reports,
+    ``team_report_radio.TeamReportRadio``), which the subclass keeps and merges."""
 
     def __init__(
         self, model: CommModel, num_envs: int, n: int, geometry: MapGeometry = PAPER_MAP
@@ -42,7 +44,6 @@ class TeamRadio:
         self.model = model
         self.n = n
         self.geometry = geometry
-        self.replicas = BeliefReplicas(num_envs, n, geometry)
         self.heard = HeardPoses(num_envs, n, n)
         self.draws = LinkDraws(num_envs, n)
         slots, shape = model.delay + 1, (model.delay + 1, num_envs, n)
@@ -50,11 +51,6 @@ class TeamRadio:
         self.pose = AircraftState(
             np.zeros(shape), np.zeros(shape), np.zeros(shape), np.zeros(shape, dtype=np.int64)
         )
-        self.row0 = np.zeros(shape, dtype=np.int64)
-        self.col0 = np.zeros(shape, dtype=np.int64)
-        window = (*shape, VISIT_WINDOW, VISIT_WINDOW)
-        self.visited = np.zeros(window, dtype=bool)
-        self.seen = np.zeros(window, dtype=bool)
         self.reaches = np.zeros((*shape, n), dtype=bool)
         """[slot, e, sender, receiver]: the message will be heard."""
         self.queues = [[self.new_queue() for _ in range(n)] for _ in range(num_envs)]
@@ -62,8 +58,7 @@ class TeamRadio:
         self.sections = {}
         """Catch-up sections of the messages in flight, by (slot, episode, sender)."""
 
-    def reset(self, env_ids: np.ndarray, believed_burning: np.ndarray) -> None:
-        self.replicas.reset(env_ids, believed_burning)
+    def reset_links(self, env_ids: np.ndarray) -> None:
         self.sent_tick[:, env_ids] = -1
         for e in np.atleast_1d(env_ids).tolist():
             self.queues[e] = [self.new_queue() for _ in range(self.n)]
@@ -71,33 +66,20 @@ class TeamRadio:
     def new_queue(self) -> CatchUpQueue:
         return CatchUpQueue(retry_ticks(self.model.delay))
 
-    def send(
-        self,
-        active: np.ndarray,
-        tick: np.ndarray,
-        seeds: np.ndarray,
-        pose: AircraftState,
-        windows: VisitWindows,
-        seen: np.ndarray,
+    def exchange(
+        self, envs: np.ndarray, tick: np.ndarray, seeds: np.ndarray, pose: AircraftState
     ) -> None:
-        """Every aircraft of the ``active`` episodes sends its tick-``tick`` message; merge
-        its own visit and the messages heard at this tick into the replicas."""
-        envs = np.flatnonzero(active)
+        """Steps 1, 3 and 4 of the module notes for the ``envs`` (their payloads stored by
+        the subclass in ring slot ``tick % (delay + 1)`` after :meth:`compose`)."""
         slots = self.model.delay + 1
         slot = tick[envs] % slots
-        self.compose(envs, slot, tick[envs])
-        self.replicas.tick(envs)
         self.sent_tick[slot, envs] = tick[envs]
         for ring, now in zip(self.pose, pose, strict=True):
             ring[slot, envs] = now[envs]
-        self.row0[slot, envs] = windows.row0[envs]
-        self.col0[slot, envs] = windows.col0[envs]
-        self.visited[slot, envs] = windows.visited[envs]
-        self.seen[slot, envs] = seen[envs]
         draws = self.draws.at(seeds, tick)[envs]
         reach = delivered(self.model, draws, pose.x_m[envs], pose.y_m[envs], tick[envs])
         self.reaches[slot, envs] = reach
-        # Own visits: receiver i is sender i, heard at once.
+        # Own payloads: receiver i is sender i, heard at once.
         own = np.zeros((len(envs), self.n, self.n), dtype=bool)
         own[:, np.arange(self.n), np.arange(self.n)] = True
         self.merge(envs, slot, own)
@@ -124,8 +106,7 @@ class TeamRadio:
             for i, queue in enumerate(self.queues[env]):
                 self.sections.pop((s, env, i), None)
                 if queue.asks or queue.answers:
-                    replica = (self.replicas.key[env, i], self.replicas.burning[env, i])
-                    self.sections[s, env, i] = queue.compose(now, *replica)
+                    self.sections[s, env, i] = self.sections_of(queue, now, env, i)
 
     def hear_sections(self, slot: int, env: int, sender: int, receiver: int) -> None:
         """A heard message's digests (answered next tick) and replies (merged now)."""
@@ -137,17 +118,81 @@ class TeamRadio:
         for reply in replies:
             if reply.target == receiver:
                 queue.on_reply(sender)
-                count = reply.cells.size
-                self.replicas.merge(
-                    np.full(count, env),
-                    np.full(count, receiver),
-                    reply.cells.astype(np.int64),
-                    reply_keys(reply),
-                    reply.burning,
-                )
+                self.merge_reply(env, receiver, reply)
+
+    # The payload's side, in the subclass.
+    def sections_of(
+        self, queue: CatchUpQueue, tick: int, env: int, aircraft: int
+    ) -> tuple[tuple[Digest, ...], tuple[Reply, ...]]:
+        raise NotImplementedError
 
     def merge(self, envs: np.ndarray, slot: np.ndarray, heard: np.ndarray) -> None:
-        """Merge the visits of messages ``heard[e, sender, receiver]`` in ring ``slot[e]``."""
+        """Merge the payloads of messages ``heard[e, sender, receiver]`` in ring ``slot[e]``."""
+        raise NotImplementedError
+
+    def merge_reply(self, env: int, receiver: int, reply: Reply) -> None:
+        raise NotImplementedError
+
+
+class TeamRadio(RadioLinks):
+    """Radio links, binary replicas and heard poses of ``num_envs`` episodes of ``n``
+    aircraft under the paper's perfect sensing: the messages carry visits."""
+
+    def __init__(
+        self, model: CommModel, num_envs: int, n: int, geometry: MapGeometry = PAPER_MAP
+    ) -> None:
+        super().__init__(model, num_envs, n, geometry)
+        self.replicas = BeliefReplicas(num_envs, n, geometry)
+        shape = (model.delay + 1, num_envs, n)
+        self.row0 = np.zeros(shape, dtype=np.int64)
+        self.col0 = np.zeros(shape, dtype=np.int64)
+        window = (*shape, VISIT_WINDOW, VISIT_WINDOW)
+        self.visited = np.zeros(window, dtype=bool)
+        self.seen = np.zeros(window, dtype=bool)
+
+    def reset(self, env_ids: np.ndarray, believed_burning: np.ndarray) -> None:
+        self.replicas.reset(env_ids, believed_burning)
+        self.reset_links(env_ids)
+
+    def send(
+        self,
+        active: np.ndarray,
+        tick: np.ndarray,
+        seeds: np.ndarray,
+        pose: AircraftState,
+        windows: VisitWindows,
+        seen: np.ndarray,
+    ) -> None:
+        """Every aircraft of the ``active`` episodes sends its tick-``tick`` message; merge
+        its own visit and the messages heard at this tick into the replicas."""
+        envs = np.flatnonzero(active)
+        slot = tick[envs] % (self.model.delay + 1)
+        self.compose(envs, slot, tick[envs])
+        self.replicas.tick(envs)
+        self.row0[slot, envs] = windows.row0[envs]
+        self.col0[slot, envs] = windows.col0[envs]
+        self.visited[slot, envs] = windows.visited[envs]
+        self.seen[slot, envs] = seen[envs]
+        self.exchange(envs, tick, seeds, pose)
+
+    def sections_of(
+        self, queue: CatchUpQueue, tick: int, env: int, aircraft: int
+    ) -> tuple[tuple[Digest, ...], tuple[Reply, ...]]:
+        return queue.compose(
+            tick, self.replicas.key[env, aircraft], self.replicas.burning[env, aircraft]
+        )
+
+    def merge_reply(self, env: int, receiver: int, reply: Reply) -> None:
+        count = reply.cells.size
+        self.replicas.merge(
+            np.full(count, env),
+            np.full(count, receiver),
+            reply.cells.astype(np.int64),
+            reply_keys(reply),
+            reply.burning,
+        )
+
+    def merge(self, envs: np.ndarray, slot: np.ndarray, heard: np.ndarray) -> None:
         e, j, i = np.nonzero(heard)
         s, env = slot[e], envs[e]
         m, a, b = np.nonzero(self.visited[s, env, j])
@@ -155,6 +200,10 @@ class TeamRadio:
         cell = (self.row0[source] + a) * self.geometry.cols + self.col0[source] + b
         key = visit_key(self.sent_tick[s[m], env[m]], j[m])
         self.replicas.merge(env[m], i[m], cell, key, self.seen[(*source, a, b)])
+
+    def believed(self) -> np.ndarray:
+        """What each aircraft believes burning, (E * N, H, W) bool."""
+        return self.replicas.burning.reshape(-1, *self.geometry.shape)
 
     def belief_images(self, pose: AircraftState) -> np.ndarray:
         """Each aircraft's ego image of its own replica, (E, N, 2, 100, 100)."""
@@ -169,4 +218,4 @@ class TeamRadio:
         return images.reshape(e, n, *images.shape[2:])
 
 
-__all__ = ["TeamRadio"]
+__all__ = ["RadioLinks", "TeamRadio"]

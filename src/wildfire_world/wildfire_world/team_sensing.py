@@ -88,6 +88,7 @@ class TeamSensing:
         wind_filter: bool = False,
         keep_codes: bool = False,
         geometry: MapGeometry = PAPER_MAP,
+        keep_reports: bool = False,
     ) -> None:
         self.sensor = sensor
         self.geometry = geometry
@@ -111,6 +112,10 @@ class TeamSensing:
         observation approach; all ``NOTHING`` before an episode's first decision."""
         self.code_origin = (np.zeros((num_envs, n), np.int64), np.zeros((num_envs, n), np.int64))
         """(row0, col0) (E, N) of the windows of :attr:`codes`."""
+        self.keep_reports = keep_reports
+        self.sent: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        """With ``keep_reports``: each (episode, aircraft)'s reports of the last decision,
+        (flat cells, values), for the radio messages under limited links."""
         if keep_codes:
             if sensor != "camera":
                 raise ValueError("report codes are kept for camera sensing only")
@@ -181,6 +186,13 @@ class TeamSensing:
             CLEAR,
             BURNING,
         )
+        if self.keep_reports:
+            # Each aircraft's reports are one block of the output, in (episode, aircraft) order.
+            counts = np.maximum(runs.stop - runs.first, 0).reshape(envs.size * self.n, -1).sum(1)
+            bounds = np.cumsum(counts)[:-1]
+            senders = [(e, k) for e in envs.tolist() for k in range(self.n)]
+            parts = zip(np.split(cell, bounds), np.split(value, bounds), strict=True)
+            self.sent = dict(zip(senders, parts, strict=True))
         self.reports += np.bincount(env, minlength=len(active))
         self.flipped += np.bincount(env[wrong], minlength=len(active))
         belief.update(env, cell, value)
