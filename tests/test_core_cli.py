@@ -93,10 +93,6 @@ def test_eval_json(tmp_path):
         (["eval", "--sensor", "radar"], "--sensor"),
         (["eval", "--sensor", "camera", "--pixel-error", "0.5"], "[0, 0.5)"),
         (["eval", "--sensor", "camera", "--policy", "obs"], "takes obs images"),
-        (
-            ["run", "--sensor", "camera", "--comm", "none"],
-            "flies in eval and train only",
-        ),
         (["eval", "--sensor", "camera", "--wind-filter", "--comm", "range=300"], "--comm ideal"),
         (["run", "--wind-filter"], "wind filter: expected noisy reports"),
     ],

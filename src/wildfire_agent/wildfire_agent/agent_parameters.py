@@ -16,7 +16,8 @@ import numpy as np
 
 from wildfire_agent.agent_protocol import AgentProtocol
 from wildfire_agent.aircraft_policy import AircraftPolicy
-from wildfire_agent.aircraft_radio import AircraftRadio
+from wildfire_agent.aircraft_radio import AircraftLinks, AircraftRadio
+from wildfire_agent.aircraft_report_radio import AircraftReportRadio
 from wildfire_agent.aircraft_sensor import AircraftSensor
 from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
@@ -68,6 +69,14 @@ PARAMETERS = (
         0.5,
     ),
     ParamSpec(
+        "preburn_steps",
+        EPISODE_DEFAULTS.preburn_steps,
+        "fire steps burnt before the aircraft come (the filtered replica spreads its start: "
+        "noisy sensing under limited links)",
+        0,
+        1000,
+    ),
+    ParamSpec(
         "shape",
         EPISODE_DEFAULTS.shape,
         "ignition shape (the replica's start under limited links)",
@@ -99,12 +108,25 @@ def agent_protocol(p: Mapping[str, Any], now_ns: Callable[[], int]) -> AgentProt
         comm = CommModel.parse(p["comm"])
     except CommError as error:
         raise AgentConfigError(str(error)) from None
-    radio = None
-    if not comm.ideal:
-        ground = ground_of(p)
-        ignition = ignite(p["seed"], p["shape"], ground, border_cells=p["border_cells"]).burning
-        radio = AircraftRadio(comm, k, n, p["seed"], ignition)
     sensor = AircraftSensor(p["sensor"], p["pixel_error"], p["seed"], k)
+    radio: AircraftLinks[Any] | None = None
+    if not comm.ideal:
+        ground, seed, border = ground_of(p), p["seed"], p["border_cells"]
+        ignition = ignite(seed, p["shape"], ground, border_cells=border).burning
+        radio = AircraftRadio(comm, k, n, seed, ignition)
+        if sensor.noisy:  # its own filtered replica, started as the aggregator's
+            fuel = ground.start(Shape.parse(p["shape"]), seed, border).fuel
+            radio = AircraftReportRadio(
+                comm,
+                k,
+                n,
+                seed,
+                sensor.sensor,
+                sensor.pixel_error,
+                ignition,
+                fuel,
+                p["preburn_steps"],
+            )
     name_tag = f"{AIRCRAFT_PREFIX}{k}"
     return AgentProtocol(
         k, n, Mode(p["mode"]), policy, start, name_tag, now_ns, radio=radio, sensor=sensor

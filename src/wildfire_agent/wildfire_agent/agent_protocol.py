@@ -19,7 +19,7 @@ Real time: :meth:`AgentProtocol.on_timer` decides from the newest inputs once pe
 slot; a decision that ends after its slot counts as a missed deadline.
 
 Limited radio links: the agent also sends its radio message of each tick and decides on its
-own replica and heard peers (:class:`~wildfire_agent.aircraft_radio.AircraftRadio`), never
+own replica and heard peers (:class:`~wildfire_agent.aircraft_radio.AircraftLinks`), never
 on the aggregator's belief. In lockstep it waits for every peer's message of the tick instead
 of their stamped states; in real time each slot takes a tick (:mod:`wildfire_agent.radio_ticks`)
 and hears whatever has arrived and is due.
@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -45,7 +46,7 @@ from wildfire_agent.agent_outputs import (
     team_state,
 )
 from wildfire_agent.aircraft_policy import AircraftPolicy
-from wildfire_agent.aircraft_radio import AircraftRadio, window_of
+from wildfire_agent.aircraft_radio import AircraftLinks
 from wildfire_agent.aircraft_sensor import AircraftSensor
 from wildfire_agent.deadlines import (
     DEADLINE_EVERY_DECISIONS,
@@ -53,7 +54,6 @@ from wildfire_agent.deadlines import (
     next_slot_start,
 )
 from wildfire_agent.dynamics import AircraftState
-from wildfire_agent.errors import AgentConfigError
 from wildfire_agent.radio_ticks import RadioTicks
 from wildfire_msgs_py.belief_codec import belief_probability, believed_burning
 from wildfire_msgs_py.belief_delta import Frame
@@ -100,12 +100,10 @@ class AgentProtocol:
         name_tag: str,
         now_ns: Callable[[], int],
         clock: Callable[[], float] = time.monotonic,
-        radio: AircraftRadio | None = None,
+        radio: AircraftLinks[Any] | None = None,
         sensor: AircraftSensor | None = None,
     ) -> None:
         self.sensor = sensor or AircraftSensor("disc", 0.0, 0, k)
-        if radio is not None and self.sensor.noisy:
-            raise AgentConfigError("sensor: noisy sensing under limited radio links is not built")
         self.k = k
         self.n = n
         self.mode = mode
@@ -131,11 +129,9 @@ class AgentProtocol:
         self.stats = DeadlineStats()
         self.slot_start: float | None = None
         self.radio = radio
-        self.radio_inbox: dict[int, TickInbox[tuple[RadioMessage, VisitWindow]]] = {
+        self.radio_inbox: dict[int, TickInbox[tuple[RadioMessage, Any]]] = {
             j: TickInbox(tick_ns) for j in self.peer_states
         }
-        self.window: VisitWindow | None = None
-        """The own visit window of the newest visited tick (the radio's, perfect disc)."""
         self.reports: tuple[VisitWindow, ...] | None = None
         """The sensor's windows of the newest visited tick (None before the first): what the
         observation approach's camera images are made from."""
@@ -220,7 +216,7 @@ class AgentProtocol:
     def on_radio(self, j: int, stamp: int, message: RadioMessage) -> list[Output]:
         """Peer ``j``'s radio message (its window checked against its pose here)."""
         assert self.radio is not None  # radio messages are subscribed to under limited links
-        received = (message, window_of(message, self.radio.geometry))
+        received = (message, self.radio.payload_of(message))
         if self.mode is Mode.REALTIME:
             self.radio_ticks.take(j, message.tick)
             if self.radio.too_late(message):
@@ -290,7 +286,6 @@ class AgentProtocol:
         action = self.policy.decide(team, burning, fire_stamp, belief, ages, self.reports)
         flown = self.fly(action, tick=0)
         self.reports = self.visit(burning)  # at the new pose: the next decision sees them
-        self.window = self.reports[0]
         out += [flown, VisitOut(self.stamp(0), self.reports)]
         self.stats.add(self.clock() - now_s, late)
         out += self.deadline(0)
@@ -310,12 +305,12 @@ class AgentProtocol:
             if team is None:
                 return None, []
             self.radio.start(team)
-        if self.window is None:  # the first slot: nothing visited yet
+        if self.reports is None:  # the first slot: nothing visited yet
             self.reports = self.visit(burning)
-            self.window = self.reports[0]
         tick = self.radio_ticks.next(self.now_ns())
-        message = self.radio.message(tick, self.state, self.window)
-        self.radio.visit(tick, self.state, self.window)
+        payload = self.radio.payload(self.reports)
+        message = self.radio.message(tick, self.state, payload)
+        self.radio.visit(tick, self.state, payload)
         self.radio.hear_due(tick)
         return self.radio.team(self.state), [RadioOut(tick * DECISION_PERIOD_NS, message)]
 
@@ -349,11 +344,11 @@ class AgentProtocol:
                 return out
             if self.visited_tick < tick:
                 windows = self.visit(burning)
-                self.window = windows[0]
                 self.reports = windows
                 out.append(VisitOut(self.stamp(tick), windows))
                 if self.radio is not None:
-                    message = self.radio.message(tick, self.state, self.window)
+                    payload = self.radio.payload(windows)
+                    message = self.radio.message(tick, self.state, payload)
                     out.append(RadioOut(self.stamp(tick), message))
                 self.visited_tick = tick
             if self.final_tick is not None and tick >= self.final_tick:
@@ -402,9 +397,9 @@ class AgentProtocol:
                 peers = {j: inbox.get(stamp) for j, inbox in self.radio_inbox.items()}
                 if any(received is None for received in peers.values()):
                     return None
-                assert self.window is not None
+                assert self.reports is not None
                 heard = {j: received for j, received in peers.items() if received is not None}
-                self.radio.receive(tick, self.state, self.window, heard)
+                self.radio.receive(tick, self.state, self.radio.payload(self.reports), heard)
             self.received_tick = tick
         return self.radio.team(self.state)
 

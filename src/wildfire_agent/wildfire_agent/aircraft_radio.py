@@ -26,6 +26,7 @@ decided when the receiver has flown its send tick, so arrival order, duplicates 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Generic, TypeVar
 
 import numpy as np
 
@@ -47,9 +48,24 @@ from wildfire_msgs_py.radio_codec import (
 )
 from wildfire_sim.grid import PAPER_MAP, MapGeometry, geometry_of
 
+Payload = TypeVar("Payload")
+"""What a radio message carries besides its pose and catch-up sections."""
+
 POSITIONS_KEPT = 600
 """Ticks of its own positions an aircraft keeps (60 s): a message sent longer ago is too late
 to decide (the delay is at most as long, ``radio.MAX_DELAY_DECISIONS``)."""
+
+
+def check_replies(message: RadioMessage, geometry: MapGeometry) -> None:
+    """Refuse a message whose catch-up replies name cells off the map, visits (or reports)
+    of no aircraft, or ticks after the message: none of it may enter a replica."""
+    for reply in message.replies:
+        if reply.cells.size and int(reply.cells.max()) >= geometry.cells:
+            raise RejectedMessage(DropReason.OUT_OF_RANGE, "catch-up cell off the map")
+        if reply.aircraft.size and int(reply.aircraft.max()) >= KEY_AIRCRAFT:
+            raise RejectedMessage(DropReason.OUT_OF_RANGE, "catch-up visit of no aircraft")
+        if reply.ticks.size and int(reply.ticks.max()) > message.tick:
+            raise RejectedMessage(DropReason.OUT_OF_RANGE, "catch-up visit after the message")
 
 
 def window_of(message: RadioMessage, geometry: MapGeometry = PAPER_MAP) -> VisitWindow:
@@ -67,13 +83,7 @@ def window_of(message: RadioMessage, geometry: MapGeometry = PAPER_MAP) -> Visit
         raise RejectedMessage(
             DropReason.MALFORMED, f"{message.bits.size} bytes of bits for {count} visited cells"
         )
-    for reply in message.replies:
-        if reply.cells.size and int(reply.cells.max()) >= geometry.cells:
-            raise RejectedMessage(DropReason.OUT_OF_RANGE, "catch-up cell off the map")
-        if reply.aircraft.size and int(reply.aircraft.max()) >= KEY_AIRCRAFT:
-            raise RejectedMessage(DropReason.OUT_OF_RANGE, "catch-up visit of no aircraft")
-        if reply.ticks.size and int(reply.ticks.max()) > message.tick:
-            raise RejectedMessage(DropReason.OUT_OF_RANGE, "catch-up visit after the message")
+    check_replies(message, geometry)
     burning = np.zeros_like(visited)
     burning[visited] = message.burning(count)
     return VisitWindow(row0, col0, visited, burning)
@@ -127,20 +137,21 @@ class CatchUpLog:
         }
 
 
-class AircraftRadio:
-    """Aircraft ``k`` of ``n`` under radio ``model`` in the episode of ``seed``."""
+class AircraftLinks(Generic[Payload]):
+    """Aircraft ``k`` of ``n`` under radio ``model`` in the episode of ``seed``: the links,
+    the heard poses and the catch-up exchanges, whatever the messages' payload (the visits
+    of :class:`AircraftRadio`, or the noisy reports of
+    ``aircraft_report_radio.AircraftReportRadio``), which the subclass keeps and merges."""
 
-    def __init__(self, model: CommModel, k: int, n: int, seed: int, ignition: np.ndarray) -> None:
+    def __init__(self, model: CommModel, k: int, n: int, seed: int, geometry: MapGeometry) -> None:
         self.model = model
         self.k = k
         self.seed = seed
-        self.geometry = geometry_of(np.asarray(ignition))
-        self.replica = BeliefReplicas(1, 1, self.geometry)
-        self.replica.reset([0], np.asarray(ignition, bool)[None])
+        self.geometry = geometry
         self.heard = HeardPoses(1, 1, n)
         self.draws = LinkDraws(1, n)
         self.n = n
-        self.pending: list[tuple[RadioMessage, VisitWindow]] = []
+        self.pending: list[tuple[RadioMessage, Payload]] = []
         """Messages accepted and not yet decided (their delay is not over)."""
         self.positions: dict[int, tuple[float, float]] = {}
         """Own positions by tick (the last :data:`POSITIONS_KEPT`): where the links are decided."""
@@ -153,13 +164,12 @@ class AircraftRadio:
         """The team's start poses (fields (n,)): the mission plan everybody knows."""
         self.heard.reset(np.array([0]), AircraftState(*(np.asarray(f)[None] for f in team)))
 
-    def message(self, tick: int, state: AircraftState, window: VisitWindow) -> RadioMessage:
-        """What the aircraft at ``state`` (fields (1,)) sends at ``tick`` of its ``window``."""
+    def message(self, tick: int, state: AircraftState, payload: Payload) -> RadioMessage:
+        """What the aircraft at ``state`` (fields (1,)) sends at ``tick`` of its ``payload``."""
         digests: tuple[Digest, ...] = ()
         replies: tuple[Reply, ...] = ()
         if self.queue.asks or self.queue.answers:
-            replica = (self.replica.key[0, 0], self.replica.burning[0, 0])
-            digests, replies = self.queue.compose(tick, *replica)
+            digests, replies = self.sections(tick)
         message = RadioMessage(
             tick,
             self.k,
@@ -167,7 +177,7 @@ class AircraftRadio:
             float(state.y_m[0]),
             float(state.heading_rad[0]),
             int(state.bank_steps[0]),
-            pack_burning(np.asarray(window.burning, bool)[np.asarray(window.visited, bool)]),
+            self.bits(payload),
             digests,
             replies,
         )
@@ -179,20 +189,19 @@ class AircraftRadio:
         self,
         tick: int,
         state: AircraftState,
-        window: VisitWindow,
-        peers: Mapping[int, tuple[RadioMessage, VisitWindow]],
+        payload: Payload,
+        peers: Mapping[int, tuple[RadioMessage, Payload]],
     ) -> None:
-        """Lockstep tick ``tick``: own visit, then every peer's message of the tick."""
-        self.visit(tick, state, window)
+        """Lockstep tick ``tick``: own payload, then every peer's message of the tick."""
+        self.visit(tick, state, payload)
         for j in sorted(peers):
             self.accept(*peers[j])
         self.hear_due(tick)
 
-    def visit(self, tick: int, state: AircraftState, window: VisitWindow) -> None:
-        """The aircraft is at ``state`` (fields (1,)) at ``tick`` and visited ``window``."""
+    def visit(self, tick: int, state: AircraftState, payload: Payload) -> None:
+        """The aircraft is at ``state`` (fields (1,)) at ``tick`` and sensed ``payload``."""
         self.tick = tick
-        self.replica.now[0] = tick
-        self._merge(window, tick, self.k)
+        self.merge_own(tick, payload)
         self.positions[tick] = (float(state.x_m[0]), float(state.y_m[0]))
         while len(self.positions) > POSITIONS_KEPT:
             self.positions.pop(min(self.positions))
@@ -201,19 +210,19 @@ class AircraftRadio:
         """Whether ``message`` was sent before the oldest position kept (it cannot be decided)."""
         return bool(self.positions) and message.tick < min(self.positions)
 
-    def accept(self, message: RadioMessage, window: VisitWindow) -> None:
-        """A peer's message (its window checked), heard by :meth:`hear_due` if it reaches us."""
-        self.pending.append((message, window))
+    def accept(self, message: RadioMessage, payload: Payload) -> None:
+        """A peer's message (its payload checked), heard by :meth:`hear_due` if it reaches us."""
+        self.pending.append((message, payload))
 
     def hear_due(self, tick: int) -> None:
         """Decide and hear every accepted message whose delay is over at ``tick``."""
         due = [p for p in self.pending if p[0].tick + self.model.delay <= tick]
-        if not due:
-            return
-        self.pending = [p for p in self.pending if p[0].tick + self.model.delay > tick]
-        for message, heard_window in sorted(due, key=lambda p: (p[0].tick, p[0].aircraft)):
-            if self.reaches(message):
-                self._hear(tick, message, heard_window)
+        if due:
+            self.pending = [p for p in self.pending if p[0].tick + self.model.delay > tick]
+            for message, payload in sorted(due, key=lambda p: (p[0].tick, p[0].aircraft)):
+                if self.reaches(message):
+                    self._hear(tick, message, payload)
+        self.settle()
 
     def reaches(self, message: RadioMessage) -> bool:
         """The radio model's verdict on ``message``: both positions at its send tick (ours: the
@@ -227,8 +236,8 @@ class AircraftRadio:
         reach = delivered(self.model, draws, x, y, np.array([sent]))
         return bool(reach[0, message.aircraft, self.k])
 
-    def _hear(self, tick: int, message: RadioMessage, heard_window: VisitWindow) -> None:
-        self._merge(heard_window, message.tick, message.aircraft)
+    def _hear(self, tick: int, message: RadioMessage, payload: Payload) -> None:
+        self.merge_heard(message, payload)
         j = message.aircraft
         returned = bool(link_returned(self.heard.tick[0, 0, j], message.tick))
         if returned:
@@ -240,9 +249,7 @@ class AircraftRadio:
         for reply in message.replies:
             if reply.target == self.k:
                 self.queue.on_reply(j)
-                zero = np.zeros(reply.cells.size, dtype=np.int64)
-                cells = reply.cells.astype(np.int64)
-                self.replica.merge(zero, zero, cells, reply_keys(reply), reply.burning)
+                self.merge_reply(reply)
                 self.catch_ups.merged(j, tick, reply.cells.size)
         pose = AircraftState(
             np.array([message.x_m]),
@@ -253,20 +260,92 @@ class AircraftRadio:
         zero, sender = np.zeros(1, dtype=np.int64), np.array([message.aircraft])
         self.heard.hear(zero, zero, sender, np.array([message.tick]), pose)
 
-    def _merge(self, window: VisitWindow, tick: int, aircraft: int) -> None:
-        cell, burning = window_cells(window, self.geometry)
-        zero = np.zeros(cell.size, dtype=np.int64)
-        self.replica.merge(zero, zero, cell, np.full(cell.size, visit_key(tick, aircraft)), burning)
-
     def team(self, state: AircraftState) -> AircraftState:
         """The team the aircraft at ``state`` (fields (1,)) decides on now, fields (n,)."""
         own = AircraftState(*(np.asarray(f)[None] for f in state))  # (1, 1)
         team = self.heard.team(np.array([self.tick]), own, np.array([self.k]))
         return AircraftState(*(f[0, 0] for f in team))
 
+    # The payload's side, in the subclass.
+    def payload(self, reports: tuple[VisitWindow, ...]) -> Payload:
+        """The payload of one tick's sensor windows (``AircraftSensor.report``)."""
+        raise NotImplementedError
+
+    def payload_of(self, message: RadioMessage) -> Payload:
+        """A peer's message's payload, checked against its pose (RejectedMessage if not)."""
+        raise NotImplementedError
+
+    def bits(self, payload: Payload) -> np.ndarray:
+        raise NotImplementedError
+
+    def sections(self, tick: int) -> tuple[tuple[Digest, ...], tuple[Reply, ...]]:
+        raise NotImplementedError
+
+    def merge_own(self, tick: int, payload: Payload) -> None:
+        raise NotImplementedError
+
+    def merge_heard(self, message: RadioMessage, payload: Payload) -> None:
+        raise NotImplementedError
+
+    def merge_reply(self, reply: Reply) -> None:
+        raise NotImplementedError
+
+    def settle(self) -> None:
+        """After a tick's messages: nothing to do for visits (merged as they come)."""
+
+    def belief(self) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+
+class AircraftRadio(AircraftLinks[VisitWindow]):
+    """Aircraft ``k`` of ``n`` under radio ``model`` in the episode of ``seed``, with the
+    paper's perfect disc: the messages carry visits, merged into a binary replica."""
+
+    def __init__(self, model: CommModel, k: int, n: int, seed: int, ignition: np.ndarray) -> None:
+        super().__init__(model, k, n, seed, geometry_of(np.asarray(ignition)))
+        self.replica = BeliefReplicas(1, 1, self.geometry)
+        self.replica.reset([0], np.asarray(ignition, bool)[None])
+
+    def payload(self, reports: tuple[VisitWindow, ...]) -> VisitWindow:
+        return reports[0]  # the disc's one window
+
+    def payload_of(self, message: RadioMessage) -> VisitWindow:
+        return window_of(message, self.geometry)
+
+    def bits(self, payload: VisitWindow) -> np.ndarray:
+        return pack_burning(np.asarray(payload.burning, bool)[np.asarray(payload.visited, bool)])
+
+    def sections(self, tick: int) -> tuple[tuple[Digest, ...], tuple[Reply, ...]]:
+        return self.queue.compose(tick, self.replica.key[0, 0], self.replica.burning[0, 0])
+
+    def merge_own(self, tick: int, payload: VisitWindow) -> None:
+        self.replica.now[0] = tick
+        self._merge(payload, tick, self.k)
+
+    def merge_heard(self, message: RadioMessage, payload: VisitWindow) -> None:
+        self._merge(payload, message.tick, message.aircraft)
+
+    def merge_reply(self, reply: Reply) -> None:
+        zero = np.zeros(reply.cells.size, dtype=np.int64)
+        cells = reply.cells.astype(np.int64)
+        self.replica.merge(zero, zero, cells, reply_keys(reply), reply.burning)
+
+    def _merge(self, window: VisitWindow, tick: int, aircraft: int) -> None:
+        cell, burning = window_cells(window, self.geometry)
+        zero = np.zeros(cell.size, dtype=np.int64)
+        self.replica.merge(zero, zero, cell, np.full(cell.size, visit_key(tick, aircraft)), burning)
+
     def belief(self) -> tuple[np.ndarray, np.ndarray]:
         """The replica: believed burning (H, W) bool and ages (H, W) float32 seconds."""
         return self.replica.burning[0, 0], self.replica.age_s()[0, 0]
 
 
-__all__ = ["POSITIONS_KEPT", "AircraftRadio", "CatchUpLog", "window_cells", "window_of"]
+__all__ = [
+    "POSITIONS_KEPT",
+    "AircraftLinks",
+    "AircraftRadio",
+    "CatchUpLog",
+    "check_replies",
+    "window_cells",
+    "window_of",
+]

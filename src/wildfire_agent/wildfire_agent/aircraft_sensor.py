@@ -10,6 +10,8 @@ order. The environment draws the same numbers for aircraft k of the same seed
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from wildfire_agent import camera
@@ -17,8 +19,9 @@ from wildfire_agent.dynamics import AircraftState
 from wildfire_agent.errors import AgentConfigError
 from wildfire_belief import sensors
 from wildfire_belief.visits import visit_windows, window_values
+from wildfire_belief.window_runs import WindowRuns, runs_of
 from wildfire_msgs_py.codecs import VisitWindow
-from wildfire_sim.grid import geometry_of
+from wildfire_sim.grid import PAPER_MAP, MapGeometry, geometry_of
 from wildfire_sim.seeding import Stream, generator
 
 
@@ -38,6 +41,30 @@ def visit_window(state: AircraftState, burning: np.ndarray) -> VisitWindow:
     return VisitWindow(
         int(windows.row0[0, 0]), int(windows.col0[0, 0]), windows.visited[0, 0], truth
     )
+
+
+class SensorWindows(NamedTuple):
+    """What every aircraft's sensor sees this decision: windows of cells around it."""
+
+    row0: np.ndarray
+    """(E, N) row of each window's south-west cell (may lie off the map)."""
+    col0: np.ndarray
+    """(E, N) column of that cell."""
+    runs: WindowRuns
+    """(E, N, C, rows): the cells each sensor C (cameras, or 1 disc) sees, row by row."""
+
+
+def sensor_windows(
+    sensor: str, pose: AircraftState, geometry: MapGeometry = PAPER_MAP
+) -> SensorWindows:
+    """The windows of ``sensor`` for aircraft at ``pose`` (fields (E, N)) on ``geometry``."""
+    if sensor == "camera":
+        cameras = camera.camera_windows(
+            pose.x_m, pose.y_m, pose.heading_rad, pose.bank_steps, geometry
+        )
+        return SensorWindows(cameras.row0, cameras.col0, cameras.runs)
+    disc = visit_windows(pose.x_m, pose.y_m, geometry)
+    return SensorWindows(disc.row0, disc.col0, runs_of(disc.visited[:, :, None]))
 
 
 class AircraftSensor:
@@ -82,4 +109,4 @@ class AircraftSensor:
         )
 
 
-__all__ = ["AircraftSensor", "check_sensing", "visit_window"]
+__all__ = ["AircraftSensor", "SensorWindows", "check_sensing", "sensor_windows", "visit_window"]

@@ -132,12 +132,22 @@ class AggregatorProtocol:
         self.recovering_since: float | None = None
         self.snapshots: list[BeliefSnapshot] = []
         self.started = False
+        self.scored = False
 
     def stamp(self, tick: int) -> int:
         """Stamp of tick ``tick`` in lockstep, the node clock in real time."""
         if self.mode is Mode.LOCKSTEP:
             return tick * DECISION_PERIOD_NS
         return self.now_ns()
+
+    def published(self, stamp: int) -> list[Output]:
+        """The belief to publish, and once, a line when the first cells score (from then on
+        the ground station's score tells whether it is still merging)."""
+        out: list[Output] = [self.belief(stamp)]
+        if not self.scored and self.aggregator.score > 0:
+            self.scored = True
+            out.append(LogOut(False, f"first cells scored at tick {self.aggregator.ticks}"))
+        return out
 
     def belief(self, stamp: int) -> BeliefOut:
         """The belief as it stands, with the node's status every ``STATUS_EVERY_TICKS``."""
@@ -249,7 +259,7 @@ class AggregatorProtocol:
             aggregator = self.aggregator
             assert isinstance(aggregator, BeliefAggregator)
             aggregator.merge(aggregator.fresher_visits(stamped))
-        return [self.belief(self.stamp(0))]
+        return self.published(self.stamp(0))
 
     # --- lockstep and recovery ----------------------------------------------------------------
 
@@ -274,7 +284,7 @@ class AggregatorProtocol:
                 self.aggregator.merge(windows)
             for inbox in self.visits:
                 inbox.discard_below(stamp + DECISION_PERIOD_NS)
-            out += [self.belief(stamp), *self.ack(NAME, stamp)]
+            out += [*self.published(stamp), *self.ack(NAME, stamp)]
 
     def ack(self, reporter: str, stamp: int) -> list[Output]:
         """An acknowledgement, if the lockstep waits for this aggregator."""

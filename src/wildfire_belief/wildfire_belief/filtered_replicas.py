@@ -36,6 +36,7 @@ import numpy as np
 
 from wildfire_belief.catch_up import DIGEST_TICK_CAP
 from wildfire_belief.filtered_belief import LogOddsBelief
+from wildfire_belief.radio import CommModel
 from wildfire_belief.replicas import KEY_AIRCRAFT
 from wildfire_msgs_py.radio_codec import DIGEST_BLOCKS, Reply
 from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
@@ -45,6 +46,12 @@ REPLAY_TICKS = 300
 """Ticks of reports a replica keeps and can replay (30 s): a report that arrives later than
 that after its tick is dropped. It bounds the longest partition after which the replicas
 still become equal (docs/model.md)."""
+
+
+def replay_window(model: CommModel) -> int:
+    """Ticks a replica keeps and replays under ``model``: :data:`REPLAY_TICKS`, or the
+    model's delay and two fire steps when longer."""
+    return max(REPLAY_TICKS, model.delay + 2 * DECISIONS_PER_FIRE_STEP)
 
 
 def fire_step_at(tick: int) -> bool:
@@ -310,4 +317,4 @@ class FilteredReplicas:
         return found
 
 
-__all__ = ["REPLAY_TICKS", "FilteredReplicas", "fire_step_at"]
+__all__ = ["REPLAY_TICKS", "FilteredReplicas", "fire_step_at", "replay_window"]

@@ -253,8 +253,6 @@ def build_spec(args: argparse.Namespace) -> Any:
     config = EnvConfig(
         shapes=(shape.value,), observation="none", **scenario_settings(args)
     ).validate()
-    if config.noisy and not config.comm.ideal:
-        raise UserError("--comm: noisy sensing under limited links flies in eval and train only")
     policy = resolve_policy(args.policy, config)
     ground = config.ground
     scenario = draw_scenario(args.seed, config)

@@ -133,7 +133,8 @@ def _reply_payload(reply: Reply) -> bytes:
     ticks = np.asarray(reply.ticks, np.int64)
     return b"".join(
         [
-            np.diff(cells, prepend=0).astype("<u4").tobytes(),
+            # Signed steps: a disc reply's cells ascend, a camera reply's go report by report.
+            np.diff(cells, prepend=0).astype("<i4").tobytes(),
             np.diff(ticks, prepend=0).astype("<i4").tobytes(),
             np.asarray(reply.aircraft, "u1").tobytes(),
             np.packbits(np.asarray(reply.burning, bool)).tobytes(),
@@ -152,11 +153,11 @@ def _reply_from_payload(target: int, count: int, compressed: bytes) -> Reply:
     if len(payload) != expected:
         raise MessageFieldError(f"catch-up reply of {len(payload)} bytes for {count} cells")
     reader = _Reader(payload, 0)
-    cells = np.cumsum(reader.array(count, "<u4").astype(np.int64))
+    cells = np.cumsum(reader.array(count, "<i4").astype(np.int64))
     ticks = np.cumsum(reader.array(count, "<i4").astype(np.int64))
     aircraft = reader.array(count, "u1")
     burning = np.unpackbits(reader.array((count + 7) // 8, "u1"), count=count).astype(bool)
-    if count and (ticks.min() < 0 or ticks.max() >= 2**32 or cells.max() >= 2**32):
+    if count and (min(ticks.min(), cells.min()) < 0 or max(ticks.max(), cells.max()) >= 2**32):
         raise MessageFieldError("catch-up reply with cells or ticks out of range")
     return Reply(target, cells.astype(np.uint32), ticks.astype(np.uint32), aircraft, burning)
 

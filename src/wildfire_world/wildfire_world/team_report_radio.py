@@ -25,21 +25,15 @@ import numpy as np
 from wildfire_agent.approaches import belief_images
 from wildfire_agent.dynamics import AircraftState
 from wildfire_belief.catch_up import CatchUpQueue
-from wildfire_belief.filtered_replicas import REPLAY_TICKS, FilteredReplicas
+from wildfire_belief.filtered_replicas import FilteredReplicas, replay_window
 from wildfire_belief.radio import CommModel
 from wildfire_msgs_py.belief_codec import published_probability
 from wildfire_msgs_py.radio_codec import Digest, Reply
-from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_world.team_radio import RadioLinks
 
 Reports = dict[tuple[int, int], tuple[np.ndarray, np.ndarray]]
 """One decision's reports: (cells, values) of every (episode, aircraft) that sensed."""
-
-
-def replay_window(model: CommModel) -> int:
-    """Ticks a replica keeps and replays: at least the model's delay and two fire steps."""
-    return max(REPLAY_TICKS, model.delay + 2 * DECISIONS_PER_FIRE_STEP)
 
 
 class TeamReportRadio(RadioLinks):
@@ -130,4 +124,4 @@ class TeamReportRadio(RadioLinks):
         return images.reshape(e, n, *images.shape[2:])
 
 
-__all__ = ["Reports", "TeamReportRadio", "replay_window"]
+__all__ = ["Reports", "TeamReportRadio"]

@@ -33,46 +33,20 @@ every fire step the belief's process term takes the filter's wind estimate.
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 
 from wildfire_agent import camera
+from wildfire_agent.aircraft_sensor import sensor_windows
 from wildfire_agent.camera_view import BURNING, CLEAR, NOTHING
 from wildfire_agent.dynamics import AircraftState
 from wildfire_belief.filtered_aggregator import score_decision
 from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_belief.sensors import NUM_CAMERAS
-from wildfire_belief.visits import visit_windows
 from wildfire_belief.wind_filter import WindFilter, team_wind_filter
-from wildfire_belief.window_runs import WindowRuns, runs_of
+from wildfire_belief.window_runs import WindowRuns
 from wildfire_msgs_py.belief_codec import published_probability
 from wildfire_sim.grid import PAPER_MAP, MapGeometry
 from wildfire_sim.seeding import Stream, generator
-
-
-class SensorWindows(NamedTuple):
-    """What every aircraft's sensor sees this decision: windows of cells around it."""
-
-    row0: np.ndarray
-    """(E, N) row of each window's south-west cell (may lie off the map)."""
-    col0: np.ndarray
-    """(E, N) column of that cell."""
-    runs: WindowRuns
-    """(E, N, C, rows): the cells each sensor C (cameras, or 1 disc) sees, row by row."""
-
-
-def sensor_windows(
-    sensor: str, pose: AircraftState, geometry: MapGeometry = PAPER_MAP
-) -> SensorWindows:
-    """The windows of ``sensor`` for aircraft at ``pose`` (fields (E, N)) on ``geometry``."""
-    if sensor == "camera":
-        cameras = camera.camera_windows(
-            pose.x_m, pose.y_m, pose.heading_rad, pose.bank_steps, geometry
-        )
-        return SensorWindows(cameras.row0, cameras.col0, cameras.runs)
-    disc = visit_windows(pose.x_m, pose.y_m, geometry)
-    return SensorWindows(disc.row0, disc.col0, runs_of(disc.visited[:, :, None]))
 
 
 class TeamSensing:
@@ -223,4 +197,4 @@ class TeamSensing:
         return self.flipped / np.maximum(self.reports, 1)
 
 
-__all__ = ["SensorWindows", "TeamSensing", "sensor_windows"]
+__all__ = ["TeamSensing"]
