@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from wildfire_belief.radio import CommModel
 from wildfire_learning.bag_transitions import transitions_from_bags
 from wildfire_learning.parallel import EvalJob, evaluate_jobs
 from wildfire_learning.replay import ImageCodec
@@ -30,11 +31,13 @@ pytestmark = [pytest.mark.dds, pytest.mark.timeout(180)]
 WILDFIRE = str(Path(sys.executable).parent / "wildfire")
 
 
-def camera_world(n: int, duration: float, wind_filter: bool = False) -> EnvConfig:
+def camera_world(
+    n: int, duration: float, wind_filter: bool = False, comm: str = "ideal"
+) -> EnvConfig:
     """The environment a camera run of ``n`` aircraft equals (circular fire, p = 0.1)."""
     return EnvConfig(
         n_aircraft=n, shapes=("circular",), max_duration_s=duration, sensor="camera",
-        pixel_error=0.1, wind_filter=wind_filter,
+        pixel_error=0.1, wind_filter=wind_filter, comm=CommModel.parse(comm),
     )  # fmt: skip
 
 
@@ -183,6 +186,41 @@ def test_lockstep_with_the_wind_filter_equals_evaluate(
     assert without.belief_iou != expected.belief_iou
     assert read_custom_data(bag)[WIND_FILTER_KEY] == "true"
     assert_rebuilds_as_the_environment(bag, config, seed)
+
+
+def test_lockstep_with_cameras_under_limited_links_equals_evaluate(
+    tmp_path: Path, dds_env: dict[str, str]
+) -> None:
+    from wildfire_msgs_py.system_codecs import stamped_state_from_msg
+    from wildfire_ros.bag import read_messages
+
+    # Every agent fuses its own reports and those it hears into its own filtered replica,
+    # and the network decides on it. Loss and a 0.2 s delay make late reports (each replica
+    # replays from a checkpoint); the outage ends in catch-ups whose replies carry reports.
+    comm, policy, seed, n, duration = (
+        "range=1500,loss=0.2,delay=2,outage=8-14",
+        "belief-camera",
+        2000011,
+        3,
+        25.0,
+    )
+    summary = fly_with_cameras(tmp_path, dds_env, policy, seed, n, duration, "--comm", comm)
+    expected = fresh_evaluation(policy, camera_world(n, duration, comm=comm), seed, record=True)
+    assert summary["comm"] == comm
+    assert summary["score"] == expected.score > 0
+    assert summary["decisions"] == expected.decisions
+    assert summary["false_alarms"] == expected.false_alarms
+    assert summary["belief_iou"] == expected.belief_iou
+    links = summary["radio_links"]
+    assert all(links[f"uav{k}"]["catch_ups"] >= 1 for k in range(n))
+    topics = [f"/uav{k}/state_stamped" for k in range(n)]
+    states: dict[str, dict[int, np.ndarray]] = {}
+    for message in read_messages(tmp_path / "bag", topics=topics):
+        stamp, vector = stamped_state_from_msg(message.message)
+        states.setdefault(message.topic, {})[stamp] = vector
+    for k, topic in enumerate(topics):
+        path = np.array([states[topic][t][:2] for t in sorted(states[topic])])
+        np.testing.assert_array_equal(path, expected.trajectory[:, k])
 
 
 def test_lockstep_of_the_camera_observation_network_equals_evaluate(
