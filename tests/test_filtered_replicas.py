@@ -92,6 +92,9 @@ def test_shuffled_duplicated_and_delayed_report_streams_give_the_filter_in_tick_
         for got, want in zip(state(replicas, r), expected, strict=True):
             assert np.array_equal(got, want)
     assert replicas.too_old.sum() == 0
+    # A catch-up reply of replica 0 to replica 1 holds nothing new; an empty one neither.
+    assert replicas.hold_reply(0, 1, replicas.reply(0, 0, 1, replicas.digest(0, 1))) == 0
+    assert replicas.hold_reply(0, 1, replicas.reply(0, 0, 1, np.full(100, 65535))) == 0
 
 
 def test_a_report_older_than_the_window_is_dropped_and_counted() -> None:

@@ -279,7 +279,9 @@ class FilteredReplicas:
         keys = ticks * KEY_AIRCRAFT + senders
         new = 0
         # Entries of one key are one report: they arrive together (reports_since's order).
-        starts = np.flatnonzero(np.diff(keys, prepend=-1))
+        starts = np.flatnonzero(np.diff(keys, prepend=-1)).tolist()
+        if not starts:
+            return 0
         for first, stop in zip(starts, [*starts[1:], keys.size], strict=True):
             new += self.hold(
                 env,
