@@ -8,6 +8,7 @@ import pytest
 from wildfire_belief.filtered_belief import LogOddsBelief
 from wildfire_belief.filtered_replicas import FilteredReplicas, fire_step_at
 from wildfire_belief.radio import CommModel
+from wildfire_sim.episode import DECISIONS_PER_FIRE_STEP
 from wildfire_sim.grid import MapGeometry
 from wildfire_world.config import WorldError
 from wildfire_world.env import EnvConfig, WildfireVecEnv
@@ -174,3 +175,40 @@ def test_the_wind_filter_under_limited_links_is_refused_with_its_reason() -> Non
     )
     with pytest.raises(WorldError, match="--comm ideal"):
         config.validate()
+
+
+def test_episodes_on_their_own_clocks_replay_as_alone() -> None:
+    """A batch whose second episode restarts a fire step after the first (training restarts
+    each episode when it ends): their fire steps fall on the same calls at different ticks,
+    and each replays late reports as it would alone."""
+    rng = np.random.default_rng(5)
+    stream = report_stream(rng)
+    batch, alone = FilteredReplicas(2, 1, 0.1, GEOMETRY), FilteredReplicas(1, 1, 0.1, GEOMETRY)
+    start(alone)
+    start(batch)
+
+    def arrive(replicas: FilteredReplicas, env: int, clock: int) -> None:
+        for tick, sender, cells, values in stream:
+            # Late within a fire step's interval: the replay starts at the checkpoint that
+            # tick() made, never at one a replay made.
+            late = 7 if sender == 1 and 1 <= tick % DECISIONS_PER_FIRE_STEP <= 17 else 0
+            if tick + late == clock:
+                replicas.hold(env, 0, sender, tick, cells, values)
+
+    for now in range(1, TICKS + 1):
+        alone.tick(np.array([0]), np.array([fire_step_at(now)]))
+        arrive(alone, 0, now)
+        alone.settle()
+    for now in range(1, TICKS + 26):
+        if now == 26:
+            ignition = np.zeros((1, *GEOMETRY.shape), dtype=bool)
+            ignition[0, 18:22, 23:27] = True
+            batch.reset([1], ignition, np.ones_like(ignition), preburn_steps=3)
+        episodes = [0] if now <= 25 else [0, 1]
+        clocks = {0: now, 1: now - 25}
+        batch.tick(np.array(episodes), np.array([fire_step_at(clocks[e]) for e in episodes]))
+        for e in episodes:
+            arrive(batch, e, clocks[e])
+        batch.settle()
+    assert np.array_equal(batch.belief.log_odds[1], alone.belief.log_odds[0])
+    assert np.array_equal(batch.belief.burn_age[1], alone.belief.burn_age[0])

@@ -143,7 +143,9 @@ class FilteredReplicas:
         stepped = self.ids(np.asarray(env_ids)[np.asarray(fire_stepped, bool)])
         if stepped.size:
             self.belief.predict(stepped)
-            self._checkpoint(stepped, int(self.now[stepped[0]]))
+            # Episodes restart on their own, so the clocks of a batch differ.
+            for tick in np.unique(self.now[stepped]).tolist():
+                self._checkpoint(stepped[self.now[stepped] == tick], tick)
 
     # ---------------------------------------------------------------- reports
     def hold(
