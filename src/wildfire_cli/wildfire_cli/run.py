@@ -333,14 +333,13 @@ def summarise(spec: Any, monitor: Any, wall_s: float, flight_wall_s: float) -> d
         # Lockstep: the score is the union's; the ground station's beside it (short of it when
         # the aggregator died mid-flight under limited links).
         result["aggregator_score"] = round(monitor.ground_score)
-    filtered = monitor.filtered
-    if filtered is not None:
-        result |= {"sensor": spec.sensor, "pixel_error": spec.pixel_error}
-        result["wind_filter"] = spec.wind_filter
+    # What flew, whatever it was.
+    result |= {"sensor": spec.sensor, "pixel_error": spec.pixel_error, "comm": spec.comm}
+    result["wind_filter"] = spec.wind_filter
+    if (filtered := monitor.filtered) is not None:
         result["false_alarms"] = filtered.false_alarms
         result["flipped_fraction"] = filtered.flipped_fraction()
     if spec.limited_links:
-        result["comm"] = spec.comm
         flight_s = max(decisions, 1) / 10.0
         result["radio_bytes_per_s_per_aircraft"] = float(monitor.radio_bytes.mean() / flight_s)
         result["radio_bytes_per_message"] = float(
