@@ -121,3 +121,59 @@ def test_each_slot_takes_the_status_tick_plus_the_periods_since_and_never_repeat
         ticks.take(2, 29 + AHEAD_TICKS + 1)
     assert error.value.reason is DropReason.FUTURE
     ticks.take(2, 29 + AHEAD_TICKS)
+
+
+@pytest.mark.parametrize("comm", ["range=300,loss=0.2,delay=2", "range=1e9,outage=2-4"])
+def test_late_and_reordered_camera_reports_build_the_lockstep_filtered_replica(comm: str) -> None:
+    """Under noisy sensing the messages carry each camera's reports: an aircraft hearing them
+    late (across fire steps) and in any order, catch-up replies included, ends with the
+    lockstep aircraft's filtered replica, bit for bit."""
+    from wildfire_agent.aircraft_report_radio import AircraftReportRadio
+    from wildfire_agent.aircraft_sensor import AircraftSensor
+
+    model = CommModel.parse(comm)
+    poses, burning = flights(SEED)
+    ignition, fuel = burning & (np.random.default_rng(3).random(burning.shape) < 0.1), ~burning
+
+    def radio(k: int) -> AircraftReportRadio:
+        return AircraftReportRadio(model, k, N, SEED, "camera", 0.1, ignition, fuel, 2)
+
+    sensors = {k: AircraftSensor("camera", 0.1, SEED, k) for k in range(N)}
+    senders = {j: radio(j) for j in (1, 2)}
+    lockstep, realtime = radio(0), radio(0)
+    for each in (lockstep, realtime, *senders.values()):
+        each.start(poses[0])
+    rng = np.random.default_rng(SEED + 1)
+    arrivals: dict[int, list[tuple[RadioMessage, tuple[VisitWindow, ...]]]] = {}
+    newest_arrival = {1: 0, 2: 0}
+    for tick in range(1, TICKS + 1):
+        reports = {k: sensors[k].report(one(poses[tick], k), burning) for k in range(N)}
+        peers = {}
+        for j, sender in senders.items():
+            message = sender.message(tick, one(poses[tick], j), reports[j])
+            peers[j] = (message, lockstep.payload_of(message))
+            newest_arrival[j] = max(newest_arrival[j], tick + int(rng.integers(0, 9)))
+            arrivals.setdefault(newest_arrival[j], []).append(peers[j])
+        # The senders hear each other and the aircraft in lockstep (their catch-ups need it).
+        own_message = lockstep.message(tick, one(poses[tick], 0), reports[0])
+        realtime.message(tick, one(poses[tick], 0), reports[0])
+        heard = {0: (own_message, lockstep.payload_of(own_message)), **peers}
+        for j, sender in senders.items():
+            others = {i: m for i, m in heard.items() if i != j}
+            sender.receive(tick, one(poses[tick], j), reports[j], others)
+        lockstep.receive(tick, one(poses[tick], 0), reports[0], peers)
+        realtime.visit(tick, one(poses[tick], 0), reports[0])
+        for received in rng.permutation(len(arrivals.get(tick, []))):
+            realtime.accept(*arrivals[tick][received])
+        realtime.hear_due(tick)
+    for late in (t for t in arrivals if t > TICKS):
+        for received in arrivals[late]:
+            realtime.accept(*received)
+    realtime.hear_due(TICKS)
+
+    ours, theirs = realtime.replicas.belief, lockstep.replicas.belief
+    assert np.array_equal(ours.log_odds, theirs.log_odds)
+    assert np.array_equal(ours.last_report, theirs.last_report)
+    assert realtime.replicas.too_old.sum() == 0
+    # The outage's catch-ups were heard, and each held reports the aircraft had missed.
+    assert "outage" not in comm or any(cells for *_, cells in lockstep.catch_ups.done)
