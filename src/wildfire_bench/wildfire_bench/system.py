@@ -12,6 +12,8 @@ For each ROS runtime backend (real rclpy on Fast DDS, and our Cyclone DDS layer)
   (from every agent's deadline statistics), target < 1 % on a quiet machine;
 * real time under camera sensing (2 aircraft, the belief network, four cameras' reports and
   the filtered belief): missed slots and mean decision compute;
+* lockstep under camera sensing (2 aircraft, the camera belief network), with ideal links and
+  under ``range=300,loss=0.2``: speed-up (target >= 8x), CPU per tick and the tick split;
 * field scale: lockstep speed-up with 16 aircraft on a 500 x 500 map with two fires (target
   >= 2x), and the bytes per simulated second of a recorded run of 2 aircraft at 1000 x 1000
   against the same run on the paper's map (target <= 3x: a bag grows with the aircraft and
@@ -47,6 +49,7 @@ def _spec(
     sensor: str = "disc",
     field: tuple[int, int, int] | None = None,
     record_dir: Path | None = None,
+    comm: str = "ideal",
 ) -> Any:
     """The run of ``n`` aircraft; ``field``: (rows, cols, ignitions) of a field map."""
     from wildfire_bringup.launcher import RunSpec
@@ -78,6 +81,7 @@ def _spec(
         pixel_error=0.1 if sensor == "camera" else 0.0,
         ground=ground,
         record_dir=record_dir,
+        comm=comm,
     )
 
 
@@ -183,7 +187,32 @@ def measure_system(quick: bool = False, smoke: bool = False) -> dict[str, Any]:
                 np.mean([v.get("compute_ms_mean", np.nan) for v in deadlines])
             ),
         }
+        result |= measure_camera_lockstep(quick)
         result |= measure_field(quick)
+    return result
+
+
+def measure_camera_lockstep(quick: bool) -> dict[str, Any]:
+    """Lockstep speed-up of the camera world (2 aircraft, the camera belief network), with
+    ideal links and under ``range=300,loss=0.2`` (each aircraft's own filtered replica)."""
+    from wildfire_agent.policy_names import resolve_policy_path
+    from wildfire_bringup.launcher import Launcher
+
+    network = str(resolve_policy_path("belief-camera").resolve())
+    result: dict[str, Any] = {}
+    for key, comm in (("camera", "ideal"), ("camera_radio", "range=300,loss=0.2")):
+        spec = _spec(2, 20.0 if quick else 60.0, True, policy=network, sensor="camera", comm=comm)
+        launcher = Launcher(spec)
+        monitor = launcher.run()
+        ticks = monitor.status.tick if monitor.status else 0
+        wall = launcher.flight_wall_s
+        result |= {
+            f"{key}_lockstep_speedup": ticks / 10.0 / wall if wall else 0.0,
+            f"{key}_lockstep_nodes_cpu_ms_per_tick": (
+                1e3 * launcher.flight_cpu_s / ticks if ticks else float("nan")
+            ),
+            f"{key}_lockstep_tick_split_ms": tick_split_ms(monitor.tick_split),
+        }
     return result
 
 
