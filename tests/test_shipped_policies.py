@@ -24,6 +24,13 @@ POLICIES = {
     "belief": ("belief", SCENARIOS),
     "belief-radio": ("belief", (*SCENARIOS, "circular_2aircraft_commrange=300,loss=0.2")),
     "belief-camera": ("belief", ("circular_2aircraft", "circular_2aircraft_sensorcamera,p=0.1")),
+    "belief-camera-radio": (
+        "belief",
+        (
+            "circular_2aircraft_sensorcamera,p=0.1",
+            "circular_2aircraft_commrange=300,loss=0.2_sensorcamera,p=0.1",
+        ),
+    ),
 }
 
 

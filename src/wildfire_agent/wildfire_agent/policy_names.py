@@ -14,6 +14,9 @@
   ``models/belief_radio_policy.pt``);
 * ``belief-camera`` — the shipped belief network trained under camera sensing
   (``--sensor camera --pixel-error 0.1``: the filtered belief; ``models/belief_camera_policy.pt``);
+* ``belief-camera-radio`` — ``belief-camera`` fine-tuned under camera sensing and limited
+  radio links (``range=300,loss=0.2``: each aircraft on its own filtered replica;
+  ``models/belief_camera_radio_policy.pt``);
 * ``obs-camera`` — the shipped observation network of that world: it sees its own four noisy
   camera images (``camera_view``; ``models/obs_camera_policy.pt``);
 * anything ending in ``.pt`` or naming an existing file — a TorchScript Q-network;
@@ -66,13 +69,23 @@ RADIO_POLICY = "belief-radio"
 """The belief network trained under limited radio links."""
 CAMERA_POLICY = "belief-camera"
 """The belief network trained under camera sensing."""
+CAMERA_RADIO_POLICY = "belief-camera-radio"
+"""The camera belief network fine-tuned under limited radio links."""
 OBS_CAMERA_POLICY = "obs-camera"
 """The observation network of the camera world (it sees its camera images)."""
-SHIPPED_POLICIES = (*APPROACHES, RADIO_POLICY, CAMERA_POLICY, OBS_CAMERA_POLICY)
+SHIPPED_POLICIES = (
+    *APPROACHES,
+    RADIO_POLICY,
+    CAMERA_POLICY,
+    CAMERA_RADIO_POLICY,
+    OBS_CAMERA_POLICY,
+)
 """Names of the shipped Q-networks (one per approach, the belief network trained under
-limited radio links, and both approaches trained under camera sensing)."""
+limited radio links, both approaches trained under camera sensing, and the camera belief
+network under both)."""
 EXPECTED_POLICIES = (
-    "rh, rh-paper, rh-belief, random, obs, belief, belief-radio, belief-camera, obs-camera, "
+    "rh, rh-paper, rh-belief, random, obs, belief, belief-radio, belief-camera, "
+    "belief-camera-radio, obs-camera, "
     f"a TorchScript .pt file or {USER_POLICY_FORM} (a vector policy of your own)"
 )
 """How an error message names what a policy may be."""
@@ -86,7 +99,8 @@ FILELESS_POLICIES = (*BUILTIN_POLICIES, *EVAL_ONLY_POLICIES)
 """Policy names with no policy file (and so no model card) behind them."""
 MODELS_DIR = Path(__file__).resolve().parents[3] / "models"
 """Shipped policies (``obs_policy.pt``, ``belief_policy.pt``, ``belief_radio_policy.pt``,
-``belief_camera_policy.pt``, ``obs_camera_policy.pt``) in the repository."""
+``belief_camera_policy.pt``, ``belief_camera_radio_policy.pt``, ``obs_camera_policy.pt``)
+in the repository."""
 
 Policy = RecedingHorizonPolicy | RandomPolicy | TorchScriptPolicy
 """A policy flying a set of aircraft (what :meth:`PolicyFactory.build` returns)."""

@@ -269,9 +269,10 @@ def add_episode_arguments(
         "--policy",
         default="rh",
         help="rh (our receding horizon), rh-paper (the paper's, uncoordinated), rh-belief (rh on "
-        "the believed map), random, obs, belief, belief-radio, belief-camera, obs-camera "
-        "(shipped models; belief-radio trained under limited radio links, belief-camera and "
-        "obs-camera under camera sensing) or a TorchScript .pt",
+        "the believed map), random, obs, belief, belief-radio, belief-camera, "
+        "belief-camera-radio, obs-camera (shipped models; belief-radio trained under limited "
+        "radio links, belief-camera and obs-camera under camera sensing, belief-camera-radio "
+        "under both) or a TorchScript .pt",
     )
     parser.add_argument("--aircraft", type=positive_int, default=2, metavar="N")
     parser.add_argument("--shape", default="circular", help="circular, t or arc")

@@ -77,7 +77,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         default=None,
         metavar="POLICY",
         help="rh, rh-paper, rh-belief, random, obs, belief, belief-radio, belief-camera, "
-        "obs-camera (shipped models) or TorchScript .pt files (default: "
+        "belief-camera-radio, obs-camera (shipped models) or TorchScript .pt files (default: "
         f"{' '.join(DEFAULT_POLICIES)}; under cameras {' '.join(CAMERA_DEFAULT_POLICIES)}; under "
         f"a noisy disc {' '.join(NOISY_DEFAULT_POLICIES)})",
     )
