@@ -188,12 +188,24 @@ def test_lockstep_with_the_wind_filter_equals_evaluate(
     assert_rebuilds_as_the_environment(bag, config, seed)
 
 
-def test_lockstep_with_cameras_under_limited_links_equals_evaluate(
-    tmp_path: Path, dds_env: dict[str, str]
-) -> None:
+def assert_flight_paths(bag: Path, n: int, trajectory: np.ndarray) -> None:
+    """Every aircraft's recorded path equals the environment's ``trajectory`` (T, n, 2)."""
     from wildfire_msgs_py.system_codecs import stamped_state_from_msg
     from wildfire_ros.bag import read_messages
 
+    topics = [f"/uav{k}/state_stamped" for k in range(n)]
+    states: dict[str, dict[int, np.ndarray]] = {}
+    for message in read_messages(bag, topics=topics):
+        stamp, vector = stamped_state_from_msg(message.message)
+        states.setdefault(message.topic, {})[stamp] = vector
+    for k, topic in enumerate(topics):
+        path = np.array([states[topic][t][:2] for t in sorted(states[topic])])
+        np.testing.assert_array_equal(path, trajectory[:, k])
+
+
+def test_lockstep_with_cameras_under_limited_links_equals_evaluate(
+    tmp_path: Path, dds_env: dict[str, str]
+) -> None:
     # Every agent fuses its own reports and those it hears into its own filtered replica,
     # and the network decides on it. Loss and a 0.2 s delay make late reports (each replica
     # replays from a checkpoint); the outage ends in catch-ups whose replies carry reports.
@@ -213,22 +225,12 @@ def test_lockstep_with_cameras_under_limited_links_equals_evaluate(
     assert summary["belief_iou"] == expected.belief_iou
     links = summary["radio_links"]
     assert all(links[f"uav{k}"]["catch_ups"] >= 1 for k in range(n))
-    topics = [f"/uav{k}/state_stamped" for k in range(n)]
-    states: dict[str, dict[int, np.ndarray]] = {}
-    for message in read_messages(tmp_path / "bag", topics=topics):
-        stamp, vector = stamped_state_from_msg(message.message)
-        states.setdefault(message.topic, {})[stamp] = vector
-    for k, topic in enumerate(topics):
-        path = np.array([states[topic][t][:2] for t in sorted(states[topic])])
-        np.testing.assert_array_equal(path, expected.trajectory[:, k])
+    assert_flight_paths(tmp_path / "bag", n, expected.trajectory)
 
 
 def test_lockstep_of_the_camera_observation_network_equals_evaluate(
     tmp_path: Path, dds_env: dict[str, str]
 ) -> None:
-    from wildfire_msgs_py.system_codecs import stamped_state_from_msg
-    from wildfire_ros.bag import read_messages
-
     # Each agent makes its network's four camera images from the reports it just published,
     # as the environment does: every decision depends on its own noisy pixels.
     policy, seed, n, duration = "obs-camera", 2000005, 2, 10.0
@@ -239,11 +241,4 @@ def test_lockstep_of_the_camera_observation_network_equals_evaluate(
     assert summary["decisions"] == expected.decisions
     assert summary["false_alarms"] == expected.false_alarms
     assert summary["belief_iou"] == expected.belief_iou
-    topics = [f"/uav{k}/state_stamped" for k in range(n)]
-    states: dict[str, dict[int, np.ndarray]] = {}
-    for message in read_messages(tmp_path / "bag", topics=topics):
-        stamp, vector = stamped_state_from_msg(message.message)
-        states.setdefault(message.topic, {})[stamp] = vector
-    for k, topic in enumerate(topics):
-        path = np.array([states[topic][t][:2] for t in sorted(states[topic])])
-        np.testing.assert_array_equal(path, expected.trajectory[:, k])
+    assert_flight_paths(tmp_path / "bag", n, expected.trajectory)

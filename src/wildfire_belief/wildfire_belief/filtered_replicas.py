@@ -252,19 +252,48 @@ class FilteredReplicas:
 
     # --------------------------------------------------------------- catch-up
     def digest(self, env: int, replica: int) -> np.ndarray:
-        """A catch-up digest of the replica's reports, (100,) uint16: per sender (the
-        first ``n`` entries), the oldest tick of the window it lacks a report of (the
-        16-bit cap when later: that only lengthens the reply)."""
-        block_ticks = np.full(DIGEST_BLOCKS, DIGEST_TICK_CAP, dtype=np.int64)
-        for sender in range(self.senders):
-            block_ticks[sender] = self.first_missing(env, replica, sender)
-        return np.minimum(block_ticks, DIGEST_TICK_CAP).astype(np.uint16)
+        """A catch-up digest of the replica's reports, (100,) uint16.
+
+        Entry ``s`` of the first ``n`` (one per sender): the oldest tick of the window whose
+        report of ``s`` the replica lacks (the 16-bit cap when later: that only lengthens
+        the reply). The other entries are a bitmask, ``mask_bits`` per sender: which of the
+        ticks from there on it holds, so that the reply skips them (under loss, the oldest
+        missing tick is often far back, and most after it are held).
+        """
+        n, width = self.senders, self.mask_bits
+        r = env * self.replicas + replica
+        block_ticks = np.full(DIGEST_BLOCKS, DIGEST_TICK_CAP, dtype=np.uint16)
+        mask = np.zeros((n, width), dtype=bool)
+        for sender in range(n):
+            since = min(self.first_missing(env, replica, sender), DIGEST_TICK_CAP)
+            block_ticks[sender] = since
+            for bit in range(width):
+                mask[sender, bit] = sender in self.held[r].get(since + bit, ())
+        words = np.packbits(mask.reshape(-1)).tobytes().ljust(2 * (DIGEST_BLOCKS - n), b"\0")
+        block_ticks[n:] = np.frombuffer(words, dtype="<u2")
+        return block_ticks
+
+    @property
+    def mask_bits(self) -> int:
+        """Ticks per sender a digest's bitmask covers (the 16-bit words after the first n)."""
+        return (DIGEST_BLOCKS - self.senders) * 16 // self.senders
 
     def reply(self, env: int, replica: int, target: int, block_ticks: np.ndarray) -> Reply:
         """The answer to ``target``'s digest: every report the replica holds that the digest
-        does not, but for ``target``'s own, one entry per reading."""
-        since = np.asarray(block_ticks, dtype=np.int64)[: self.senders]
-        found = self.reports_since(env, replica, since, target)
+        does not say ``target`` holds, but for ``target``'s own, one entry per reading."""
+        n, width = self.senders, self.mask_bits
+        block_ticks = np.asarray(block_ticks, dtype=np.uint16)
+        since = block_ticks[:n].astype(np.int64)
+        words = block_ticks[n:].astype("<u2").tobytes()
+        held = np.unpackbits(np.frombuffer(words, np.uint8))[: n * width].reshape(n, width)
+        found = [
+            report
+            for report in self.reports_since(env, replica, since, target)
+            if not (
+                report[0] - since[report[1]] < width
+                and held[report[1], report[0] - since[report[1]]]
+            )
+        ]
         sizes = [cells.size for _, _, cells, _ in found]
         return Reply(
             target,
