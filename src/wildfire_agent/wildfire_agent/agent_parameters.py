@@ -113,8 +113,9 @@ def agent_protocol(p: Mapping[str, Any], now_ns: Callable[[], int]) -> AgentProt
     if not comm.ideal:
         ground, seed, border = ground_of(p), p["seed"], p["border_cells"]
         ignition = ignite(seed, p["shape"], ground, border_cells=border).burning
-        radio = AircraftRadio(comm, k, n, seed, ignition)
-        if sensor.noisy:  # its own filtered replica, started as the aggregator's
+        if not sensor.noisy:
+            radio = AircraftRadio(comm, k, n, seed, ignition)
+        else:  # its own filtered replica, started as the aggregator's
             fuel = ground.start(Shape.parse(p["shape"]), seed, border).fuel
             radio = AircraftReportRadio(
                 comm,
