@@ -13,6 +13,7 @@ import torch
 from wildfire_agent.policy_names import (
     BUILTIN_POLICIES,
     CAMERA_POLICY,
+    CAMERA_RADIO_POLICY,
     OBS_CAMERA_POLICY,
     SHIPPED_POLICIES,
 )
@@ -21,7 +22,7 @@ from wildfire_world.env import EnvConfig, VecPolicy, WildfireVecEnv
 INCUMBENT_POLICIES = tuple(
     str(name)
     for name in (*BUILTIN_POLICIES, *SHIPPED_POLICIES)
-    if name not in ("random", CAMERA_POLICY, OBS_CAMERA_POLICY)
+    if name not in ("random", CAMERA_POLICY, CAMERA_RADIO_POLICY, OBS_CAMERA_POLICY)
 )
 """The shipped policies whose flights are the oracle's incumbents: ``random`` never wins, and
 the camera-trained networks belong to another world than the paper's disc the oracle plans."""

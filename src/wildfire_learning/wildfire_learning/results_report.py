@@ -29,6 +29,7 @@ import numpy as np
 from wildfire_agent.approaches import APPROACHES
 from wildfire_agent.policy_names import (
     CAMERA_POLICY,
+    CAMERA_RADIO_POLICY,
     OBS_CAMERA_POLICY,
     ORACLE_POLICY,
     RADIO_POLICY,
@@ -47,6 +48,7 @@ POLICY_LABELS = {
     "belief": "belief DQN",
     RADIO_POLICY: "belief DQN (radio-trained)",
     CAMERA_POLICY: "belief DQN (camera-trained)",
+    CAMERA_RADIO_POLICY: "belief DQN (camera- and radio-trained)",
     OBS_CAMERA_POLICY: "observation DQN (camera-trained)",
     "rh": "receding horizon",
     "rh-paper": "receding horizon (paper)",
