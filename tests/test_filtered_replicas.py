@@ -107,6 +107,7 @@ def test_a_report_older_than_the_window_is_dropped_and_counted() -> None:
     fly(replicas, {}, 100)
     before = [a.copy() for a in state(replicas, 1)]
     assert not replicas.hold(0, 1, sender, tick, cells, values)
+    assert not replicas.hold(0, 1, sender, 101, cells, values)  # a tick not flown yet
     replicas.settle()
     assert replicas.too_old[1] == 1
     for got, want in zip(state(replicas, 1), before, strict=True):

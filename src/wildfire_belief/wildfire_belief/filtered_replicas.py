@@ -153,9 +153,11 @@ class FilteredReplicas:
     ) -> bool:
         """Replica ``replica`` of ``env`` now holds ``sender``'s reports of ``tick``: flat
         cells and reported values. Returns whether they are new to it (applied at the next
-        :meth:`settle`); a report held already, or too old to replay, changes nothing."""
+        :meth:`settle`); a report held already, too old to replay, or of a tick the
+        replica has not reached (callers hear a message once its tick is flown), changes
+        nothing."""
         r = env * self.replicas + replica
-        if sender in self.held[r].get(tick, ()):
+        if sender in self.held[r].get(tick, ()) or tick > self.now[r]:
             return False
         if tick < self.window_start(r):
             self.too_old[r] += 1
