@@ -53,6 +53,8 @@ class TeamReportRadio(RadioLinks):
         self.replicas = FilteredReplicas(num_envs, n, p, geometry, replay_window(model))
         self.preburn_steps = preburn_steps
         self._probability = np.zeros((num_envs * n, *geometry.shape))
+        self._sent: Reports = {}
+        """The reports of the tick being sent (each aircraft holds its own at once)."""
 
     def reset(self, env_ids: np.ndarray, ignition: np.ndarray, fuel: np.ndarray) -> None:
         """Start over: every replica from the team's start belief (as ``TeamSensing``)."""
