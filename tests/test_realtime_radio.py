@@ -177,3 +177,36 @@ def test_late_and_reordered_camera_reports_build_the_lockstep_filtered_replica(c
     assert realtime.replicas.too_old.sum() == 0
     # The outage's catch-ups were heard, and each held reports the aircraft had missed.
     assert "outage" not in comm or any(cells for *_, cells in lockstep.catch_ups.done)
+
+
+def test_camera_radio_messages_that_lie_are_dropped_with_their_reason() -> None:
+    """A camera message whose bits do not fit the footprints its pose makes, or whose
+    catch-up reply names an aircraft outside the team, is refused before any replica."""
+    from wildfire_agent.aircraft_report_radio import AircraftReportRadio
+    from wildfire_agent.aircraft_sensor import AircraftSensor
+    from wildfire_msgs_py.radio_codec import Reply
+
+    poses, burning = flights(SEED)
+    model = CommModel.parse("range=300")
+    sender, receiver = (
+        AircraftReportRadio(model, k, N, SEED, "camera", 0.1, burning, ~burning, 0) for k in (1, 0)
+    )
+    state = one(poses[1], 1)
+    message = sender.message(
+        1, state, AircraftSensor("camera", 0.1, SEED, 1).report(state, burning)
+    )
+    assert sum(w.visited.sum() for w in receiver.payload_of(message)) > 0  # the honest one reads
+    for lie, reason in (
+        (message._replace(bits=message.bits[:-1]), DropReason.MALFORMED),
+        (message._replace(x_m=message.x_m + 400.0), DropReason.MALFORMED),
+        (
+            message._replace(
+                replies=(Reply(0, np.array([5], np.uint32), np.array([1], np.uint32),
+                               np.array([N], np.uint8), np.array([True])),)
+            ),
+            DropReason.OUT_OF_RANGE,
+        ),
+    ):  # fmt: skip
+        with pytest.raises(RejectedMessage) as refused:
+            receiver.payload_of(lie)
+        assert refused.value.reason is reason
