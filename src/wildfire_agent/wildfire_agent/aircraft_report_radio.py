@@ -23,6 +23,7 @@ import numpy as np
 from wildfire_agent.aircraft_radio import AircraftLinks, check_replies
 from wildfire_agent.aircraft_sensor import sensor_windows
 from wildfire_agent.dynamics import AircraftState
+from wildfire_belief.filtered_aggregator import report_cells
 from wildfire_belief.filtered_replicas import FilteredReplicas, fire_step_at, replay_window
 from wildfire_belief.radio import CommModel
 from wildfire_msgs_py.belief_codec import published_probability
@@ -33,17 +34,6 @@ from wildfire_sim.grid import geometry_of
 
 Reports = tuple[VisitWindow, ...]
 """One tick's report windows of an aircraft: one per sensor (camera, or the disc)."""
-
-
-def report_cells(windows: Reports, cols: int) -> tuple[np.ndarray, np.ndarray]:
-    """Flat map cells and reported values of every reading of ``windows``, in sensor order
-    and row-major within a window (the order the reports were drawn and the bits go)."""
-    cells, values = [], []
-    for window in windows:
-        rows, columns = np.nonzero(window.visited)
-        cells.append((rows + window.row0) * cols + columns + window.col0)
-        values.append(np.asarray(window.burning, bool)[rows, columns])
-    return np.concatenate(cells).astype(np.int64), np.concatenate(values)
 
 
 class AircraftReportRadio(AircraftLinks[Reports]):
@@ -100,7 +90,7 @@ class AircraftReportRadio(AircraftLinks[Reports]):
         return tuple(VisitWindow(row0, col0, seen[c], burning[c]) for c in range(seen.shape[0]))
 
     def bits(self, payload: Reports) -> np.ndarray:
-        return pack_burning(report_cells(payload, self.geometry.cols)[1])
+        return pack_burning(report_cells(payload, self.geometry)[1])
 
     def sections(self, tick: int) -> tuple[tuple[Digest, ...], tuple[Reply, ...]]:
         replicas = self.replicas
@@ -116,10 +106,10 @@ class AircraftReportRadio(AircraftLinks[Reports]):
         while int(self.replicas.now[0]) < tick:
             upcoming = int(self.replicas.now[0]) + 1
             self.replicas.tick(np.array([0]), np.array([fire_step_at(upcoming)]))
-        self.replicas.hold(0, 0, self.k, tick, *report_cells(payload, self.geometry.cols))
+        self.replicas.hold(0, 0, self.k, tick, *report_cells(payload, self.geometry))
 
     def merge_heard(self, message: RadioMessage, payload: Reports) -> None:
-        cells = report_cells(payload, self.geometry.cols)
+        cells = report_cells(payload, self.geometry)
         self.replicas.hold(0, 0, message.aircraft, message.tick, *cells)
 
     def merge_reply(self, reply: Reply) -> None:
@@ -136,4 +126,4 @@ class AircraftReportRadio(AircraftLinks[Reports]):
         return shown[0], belief.age_s()[0]
 
 
-__all__ = ["AircraftReportRadio", "Reports", "report_cells"]
+__all__ = ["AircraftReportRadio", "Reports"]
